@@ -1,0 +1,1 @@
+"""Thin typer commands: parse options, read, call processes, write. No physics here."""

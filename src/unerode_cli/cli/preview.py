@@ -1,0 +1,41 @@
+"""`unerode-cli preview DEM OUT.png`: hillshade blended with an elevation colour ramp."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from unerode_cli.cli.errors import reported_errors
+from unerode_cli.cli.options import Band, Channel, InputDem, Overwrite, Quiet, Verbose
+
+
+def preview(
+    dem: InputDem,
+    png: Annotated[Path, typer.Argument(help="Output PNG.")],
+    title: Annotated[str | None, typer.Option(help="Title (default: the DEM's file name).")] = None,
+    cmap: Annotated[str, typer.Option(help="Matplotlib colour map of elevations.")] = "terrain",
+    exaggeration: Annotated[float, typer.Option(help="Vertical exaggeration of the hillshade.")] = 1.0,
+    band: Band = None,
+    channel: Channel = None,
+    overwrite: Overwrite = False,
+    verbose: Verbose = 0,
+    quiet: Quiet = 0,
+) -> None:
+    """Write a PNG: hillshade on an elevation colour ramp, colour bar in metres."""
+    with reported_errors(verbose - quiet):
+        from matplotlib import colormaps
+
+        from unerode_cli.cli import common
+        from unerode_cli.errors import InputError
+        from unerode_cli.raster.paths import check_output
+
+        check_output(png, overwrite, (dem,))
+        if png.suffix.lower() != ".png":
+            raise InputError(f"the preview must be a .png file, got {png.name}.")
+        if cmap not in colormaps:
+            raise InputError(f"unknown colour map '{cmap}'.")
+        terrain = common.load(dem, band, channel)
+        common.preview(terrain, png, title=title if title is not None else dem.name,
+                       cmap=cmap, vertical_exaggeration=exaggeration)

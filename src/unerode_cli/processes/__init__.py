@@ -1,0 +1,1 @@
+"""Surface processes: each returns a change of the terrain, never edits it in place."""

@@ -1,0 +1,1 @@
+"""Hillshade previews and plots (matplotlib, Agg backend)."""
