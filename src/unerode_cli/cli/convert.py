@@ -8,8 +8,18 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
-    Band, Channel, Cog, CreationOptions, Dtype, DtypeOpt, InputDem, OutputDem, Overwrite,
-    Preview, Quiet, Verbose,
+    Band,
+    Channel,
+    Cog,
+    CreationOptions,
+    Dtype,
+    DtypeOpt,
+    InputDem,
+    OutputDem,
+    Overwrite,
+    Preview,
+    Quiet,
+    Verbose,
 )
 
 

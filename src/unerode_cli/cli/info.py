@@ -33,14 +33,13 @@ def info(
 
 def describe(terrain: Any) -> dict[str, Any]:
     """A JSON-able summary of a Terrain."""
-    import numpy as np
     from pyproj import CRS
 
     ny, nx = terrain.shape
     valid = ~terrain.nodata_mask
     crs = CRS.from_wkt(terrain.crs_wkt) if terrain.crs_wkt else None
-    left, top = terrain.transform * (0, 0)
-    right, bottom = terrain.transform * (nx, ny)
+    left, top = terrain.transform @ (0, 0)
+    right, bottom = terrain.transform @ (nx, ny)
     z = terrain.elevation[valid]
     return {
         "width": nx,

@@ -9,7 +9,16 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
-    Cog, CreationOptions, Dtype, DtypeOpt, OutputDem, Overwrite, Preview, Quiet, Seed, Verbose,
+    Cog,
+    CreationOptions,
+    Dtype,
+    DtypeOpt,
+    OutputDem,
+    Overwrite,
+    Preview,
+    Quiet,
+    Seed,
+    Verbose,
 )
 
 

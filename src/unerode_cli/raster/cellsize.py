@@ -60,7 +60,7 @@ def cell_size_metres(crs_wkt: str, transform: Affine, shape: tuple[int, int], so
 
 def _geographic_cell_size(crs: CRS, transform: Affine, shape: tuple[int, int], source: str) -> CellSize:
     ny, nx = shape
-    lon_c, lat_c = transform * (nx / 2.0, ny / 2.0)
+    lon_c, lat_c = transform @ (nx / 2.0, ny / 2.0)
     half_lon, half_lat = transform.a / 2.0, -transform.e / 2.0
     span = ny * -transform.e
     if span > MAX_LATITUDE_SPAN_DEG:

@@ -28,8 +28,10 @@ GTIFF_DEFAULTS = {
     "BLOCKXSIZE": "256",
     "BLOCKYSIZE": "256",
     "BIGTIFF": "IF_SAFER",
+    "NUM_THREADS": "ALL_CPUS",
 }
-COG_DEFAULTS = {"COMPRESS": "DEFLATE", "PREDICTOR": "YES", "BIGTIFF": "IF_SAFER"}
+COG_DEFAULTS = {"COMPRESS": "DEFLATE", "PREDICTOR": "YES", "BIGTIFF": "IF_SAFER",
+                "NUM_THREADS": "ALL_CPUS"}
 
 
 @dataclass(frozen=True)
@@ -114,10 +116,19 @@ def write_gdal(terrain: Terrain, path: Path, options: WriteOptions) -> None:
 
 
 def output_nodata(terrain: Terrain) -> float | None:
-    """The nodata value to write: the input's, else −9999 when the terrain has nodata cells."""
-    if terrain.nodata is not None:
-        return float(terrain.nodata)
-    return -9999.0 if terrain.nodata_mask.any() else None
+    """The nodata value to write: the terrain's, else −9999 when it has nodata cells.
+
+    Should a valid elevation equal that value in float32, NaN is used instead so that no
+    valid cell is ever read back as nodata.
+    """
+    candidate = terrain.nodata
+    if candidate is None:
+        if not terrain.nodata_mask.any():
+            return None
+        candidate = -9999.0
+    candidate = float(candidate)
+    valid = terrain.elevation[~terrain.nodata_mask].astype(np.float32)
+    return float("nan") if np.any(valid == np.float32(candidate)) else candidate
 
 
 def _driver_for(path: Path, cog: bool) -> str:

@@ -1,0 +1,37 @@
+"""Run the registered benchmarks: ``python bench/run.py [-k SUBSTRING] [--repeats N]``.
+
+Writes bench/results.json and bench/results.md (markdown table)."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from harness import REGISTRY, measure, write_reports  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("-k", default="", help="run only benchmarks whose name contains this")
+    parser.add_argument("--repeats", type=int, default=5, help="timed runs per case (≥ 3)")
+    args = parser.parse_args()
+    for module in sorted(HERE.glob("bench_*.py")):
+        importlib.import_module(module.stem)
+    results = []
+    for name, case in REGISTRY.items():
+        if args.k in name:
+            result = measure(name, case, args.repeats)
+            print(f"{name:45s} {result.median_s * 1e3:10.1f} ms", flush=True)
+            results.append(result)
+    json_path, md_path = write_reports(results, HERE)
+    print(md_path.read_text())
+    print(f"wrote {json_path} and {md_path}")
+
+
+if __name__ == "__main__":
+    main()
