@@ -15,7 +15,7 @@ def preview(
     dem: InputDem,
     png: Annotated[Path, typer.Argument(help="Output PNG.")],
     title: Annotated[str | None, typer.Option(help="Title (default: the DEM's file name).")] = None,
-    cmap: Annotated[str, typer.Option(help="Matplotlib colour map of elevations.")] = "terrain",
+    cmap: Annotated[str, typer.Option(help="Colour map: sea-land (blues below 0 m) or any matplotlib one.")] = "sea-land",
     exaggeration: Annotated[float, typer.Option(help="Vertical exaggeration of the hillshade.")] = 1.0,
     band: Band = None,
     channel: Channel = None,
@@ -34,7 +34,7 @@ def preview(
         check_output(png, overwrite, (dem,))
         if png.suffix.lower() != ".png":
             raise InputError(f"the preview must be a .png file, got {png.name}.")
-        if cmap not in colormaps:
+        if cmap != "sea-land" and cmap not in colormaps:
             raise InputError(f"unknown colour map '{cmap}'.")
         terrain = common.load(dem, band, channel)
         common.preview(terrain, png, title=title if title is not None else dem.name,

@@ -10,7 +10,10 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.colors import LightSource, Normalize  # noqa: E402
+from matplotlib.colors import Colormap, LightSource, ListedColormap, Normalize  # noqa: E402
+
+#: Fraction of matplotlib's "terrain" colour map that is water (blues); the rest is land.
+TERRAIN_WATER_FRACTION = 0.22
 
 
 def save_preview(
@@ -19,12 +22,16 @@ def save_preview(
     dy: float,
     path: Path,
     title: str = "",
-    cmap: str = "terrain",
+    cmap: str = "sea-land",
     vertical_exaggeration: float = 1.0,
     dpi: int = 110,
 ) -> None:
     """Save a PNG: hillshade (sun from the north-west, 45°) soft-blended with ``cmap``,
     nodata (NaN) transparent, and a colour bar in metres.
+
+    The default ``"sea-land"`` colour map shows elevations below 0 m in blues and land in the
+    greens-to-white of matplotlib's "terrain", so that low land never looks like sea; any
+    other matplotlib colour map name is used as it is.
 
     ``elevation`` is in metres (row 0 = north), ``dx``/``dy`` the cell sizes in metres so that
     slopes — hence shading — are true to the ground.
@@ -35,8 +42,9 @@ def save_preview(
     lo, hi = float(np.nanmin(elevation)), float(np.nanmax(elevation))
     norm = Normalize(lo, hi if hi > lo else lo + 1.0)
     filled = np.where(valid, elevation, lo)
+    colour_map = sea_land_colormap(lo, hi) if cmap == "sea-land" else plt.get_cmap(cmap)
     shaded = LightSource(azdeg=315, altdeg=45).shade(
-        filled, cmap=plt.get_cmap(cmap), norm=norm, blend_mode="soft",
+        filled, cmap=colour_map, norm=norm, blend_mode="soft",
         vert_exag=vertical_exaggeration, dx=dx, dy=dy,
     )
     shaded[..., 3] = valid
@@ -49,8 +57,19 @@ def save_preview(
     ax.set_ylabel("y (km)")
     if title:
         ax.set_title(title, fontsize=10)
-    bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.85)
+    bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=colour_map), ax=ax, shrink=0.85)
     bar.set_label("elevation (m)")
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def sea_land_colormap(lo: float, hi: float, levels: int = 256) -> Colormap:
+    """Matplotlib's "terrain" split at 0 m: its water blues for [lo, 0), its land colours for
+    [0, hi], each stretched over its share of the elevation range."""
+    terrain = plt.get_cmap("terrain")
+    sea_share = float(np.clip(-lo / (hi - lo), 0.0, 1.0)) if hi > lo else 0.0
+    n_sea = int(round(levels * sea_share))
+    sea = terrain(np.linspace(0.0, TERRAIN_WATER_FRACTION, n_sea))
+    land = terrain(np.linspace(TERRAIN_WATER_FRACTION + 0.03, 1.0, levels - n_sea))
+    return ListedColormap(np.vstack([sea, land]), name="sea-land")
