@@ -9,6 +9,8 @@ import typer
 
 from unerode_cli import __version__
 from unerode_cli.cli.convert import convert
+from unerode_cli.cli.erode import erode, unerode
+from unerode_cli.cli.flow import flow
 from unerode_cli.cli.info import info
 from unerode_cli.cli.preview import preview
 from unerode_cli.cli.synth import synth
@@ -22,7 +24,7 @@ app = typer.Typer(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 
-for command in (info, convert, preview, synth):
+for command in (info, convert, preview, synth, flow, erode, unerode):
     app.command()(command)
 
 

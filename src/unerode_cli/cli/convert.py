@@ -39,7 +39,8 @@ def convert(
 ) -> None:
     """Convert between GeoTIFF, EXR and other GDAL formats, keeping CRS, transform, nodata."""
     with reported_errors(verbose - quiet):
-        from unerode_cli.cli.common import Outputs, load, save
+        from unerode_cli.cli.common import load
+        from unerode_cli.pipeline.outputs import Outputs, save
         from unerode_cli.errors import InputError
 
         outputs = Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview)

@@ -8,7 +8,6 @@ from typing import Annotated
 
 import typer
 
-from unerode_cli.errors import InputError
 
 
 class Dtype(str, Enum):
@@ -30,12 +29,6 @@ Preview = Annotated[Path | None, typer.Option("--preview", help="Also write a hi
 Seed = Annotated[int, typer.Option("--seed", help="Random seed (recorded in the output's history).")]
 
 
-def parse_creation_options(entries: list[str] | None) -> dict[str, str]:
-    """``["KEY=VALUE", ...]`` → dict; a malformed entry is bad input."""
-    options: dict[str, str] = {}
-    for entry in entries or []:
-        key, sep, value = entry.partition("=")
-        if not sep or not key.strip():
-            raise InputError(f"--co expects KEY=VALUE, got '{entry}'.")
-        options[key.strip().upper()] = value.strip()
-    return options
+Outlets = Annotated[str, typer.Option("--outlets", help="Domain edges that drain out: all, none, or a comma list of N,E,S,W.")]
+SeaLevel = Annotated[float | None, typer.Option("--sea-level", help="Cells at or below this elevation (m) are outlets.")]
+Dirichlet = Annotated[Path | None, typer.Option("--dirichlet", help="Raster on the DEM's grid; non-zero cells are fixed-elevation outlet nodes.")]

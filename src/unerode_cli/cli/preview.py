@@ -27,7 +27,8 @@ def preview(
     with reported_errors(verbose - quiet):
         from matplotlib import colormaps
 
-        from unerode_cli.cli import common
+        from unerode_cli.cli.common import load
+        from unerode_cli.pipeline.outputs import preview as write_preview
         from unerode_cli.errors import InputError
         from unerode_cli.raster.paths import check_output
 
@@ -36,6 +37,6 @@ def preview(
             raise InputError(f"the preview must be a .png file, got {png.name}.")
         if cmap != "sea-land" and cmap not in colormaps:
             raise InputError(f"unknown colour map '{cmap}'.")
-        terrain = common.load(dem, band, channel)
-        common.preview(terrain, png, title=title if title is not None else dem.name,
+        terrain = load(dem, band, channel)
+        write_preview(terrain, png, title=title if title is not None else dem.name,
                        cmap=cmap, vertical_exaggeration=exaggeration)

@@ -18,6 +18,8 @@ class ParamSpec:
         help: one-line description.
         minimum / maximum: valid closed range (None = unbounded).
         raster: whether a raster on the grid may replace the scalar.
+        symbol: the paper's symbol when it differs from ``name`` (e.g. ``"K_d"``); it is
+            offered as a second CLI option name.
     """
 
     name: str
@@ -27,6 +29,7 @@ class ParamSpec:
     minimum: float | None = None
     maximum: float | None = None
     raster: bool = False
+    symbol: str = ""
 
     def check(self, value: float | np.ndarray) -> None:
         """Raise ValueError with one sentence when ``value`` is outside the valid range."""

@@ -39,7 +39,7 @@ class WriteOptions:
     """How to write a raster.
 
     Attributes:
-        dtype: "float32" (default) or "float64".
+        dtype: "float32" (default), "float64", or an integer type for codes (e.g. "uint8").
         cog: write a Cloud-Optimized GeoTIFF.
         creation_options: GDAL creation options (override the defaults).
     """
@@ -104,6 +104,8 @@ def write_gdal(terrain: Terrain, path: Path, options: WriteOptions) -> None:
         profile.update(GTIFF_DEFAULTS)
     elif driver == "COG":
         profile.update(COG_DEFAULTS)
+    if driver in ("GTiff", "COG") and np.issubdtype(np.dtype(options.dtype), np.integer):
+        profile["PREDICTOR"] = "2"  # horizontal differencing: the floating-point one needs floats
     profile.update(options.creation_options)
     try:
         with rasterio.open(path, "w", **profile) as dst:

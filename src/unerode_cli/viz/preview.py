@@ -73,3 +73,44 @@ def sea_land_colormap(lo: float, hi: float, levels: int = 256) -> Colormap:
     sea = terrain(np.linspace(0.0, TERRAIN_WATER_FRACTION, n_sea))
     land = terrain(np.linspace(TERRAIN_WATER_FRACTION + 0.03, 1.0, levels - n_sea))
     return ListedColormap(np.vstack([sea, land]), name="sea-land")
+
+
+def save_field_preview(
+    field: np.ndarray,
+    elevation: np.ndarray,
+    dx: float,
+    dy: float,
+    path: Path,
+    label: str,
+    title: str = "",
+    log: bool = False,
+    cmap: str = "Blues",
+    dpi: int = 110,
+) -> None:
+    """Save a PNG of ``field`` (e.g. discharge, m³/y) over a grey hillshade of ``elevation``.
+
+    With ``log`` the colours follow log10 of the positive values (drainage networks span many
+    orders of magnitude); the colour bar is labelled ``label`` (with its unit).
+    """
+    valid = np.isfinite(elevation) & np.isfinite(field)
+    if not valid.any():
+        raise ValueError("the field has no valid cell to preview")
+    filled = np.where(np.isfinite(elevation), elevation, np.nanmin(elevation))
+    shade = LightSource(azdeg=315, altdeg=45).hillshade(filled, dx=dx, dy=dy)
+    values = np.where(valid, field, np.nan)
+    if log:
+        values = np.log10(np.where(values > 0, values, np.nan))
+        label = f"log10 {label}"
+    ny, nx = field.shape
+    extent = (0, nx * dx / 1000.0, 0, ny * dy / 1000.0)
+    fig, ax = plt.subplots(figsize=(7.0, max(2.5, min(12.0, 7.0 * ny * dy / (nx * dx) * 0.85 + 0.6))))
+    ax.imshow(np.where(np.isfinite(elevation), shade, np.nan), cmap="gray", extent=extent)
+    image = ax.imshow(values, cmap=cmap, extent=extent, alpha=0.85, interpolation="nearest")
+    ax.set_xlabel("x (km)")
+    ax.set_ylabel("y (km)")
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.colorbar(image, ax=ax, shrink=0.85).set_label(label)
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)

@@ -1,0 +1,92 @@
+"""`unerode-cli erode` and `unerode-cli unerode`: run surface processes forward or backward."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from unerode_cli.cli.errors import reported_errors
+from unerode_cli.cli.options import (
+    Band, Channel, Cog, CreationOptions, Dirichlet, Dtype, DtypeOpt, InputDem, Outlets, OutputDem,
+    Overwrite, Preview, Quiet, SeaLevel, Verbose,
+)
+from unerode_cli.cli.parameter_options import with_parameter_options
+from unerode_cli.processes.fluvial import PARAMETERS as FLUVIAL_PARAMETERS
+
+
+class Scheme(str, Enum):
+    limiter = "limiter"
+    upwind = "upwind"
+
+
+class Method(str, Enum):
+    mfd = "mfd"
+    d8 = "d8"
+
+
+ALL_PARAMETERS = FLUVIAL_PARAMETERS
+
+
+def _command(backward: bool):
+    verb = "unerode" if backward else "erode"
+
+    @with_parameter_options(ALL_PARAMETERS)
+    def command(
+        source: InputDem,
+        output: OutputDem,
+        process: Annotated[str, typer.Option(help="Process(es), comma-separated, applied in this order in each step.")] = "fluvial",
+        dt: Annotated[float, typer.Option("--dt", help="Time step (years, > 0; unerode runs it backward).")] = 1000.0,
+        duration: Annotated[float | None, typer.Option(help="Simulated time (years); or give --steps.")] = None,
+        steps: Annotated[int | None, typer.Option(help="Number of time steps; or give --duration.")] = None,
+        no_substep: Annotated[bool, typer.Option("--no-substep", help="Refuse an unstable --dt instead of sub-stepping it.")] = False,
+        snapshot_every: Annotated[float | None, typer.Option(help="Write a numbered snapshot OUTPUT_k every this many simulated years.")] = None,
+        change_map: Annotated[Path | None, typer.Option(help="Write the signed change (m) due to the processes (uplift excluded): < 0 erosion, > 0 deposition.")] = None,
+        scheme: Annotated[Scheme, typer.Option(help="Slope of backward fluvial steps: limiter (000 Eq. 12) or upwind (Eq. 10).")] = Scheme.limiter,
+        method: Annotated[Method, typer.Option(help="Flow routing: mfd (multiple flow directions) or d8.")] = Method.mfd,
+        outlets: Outlets = "all",
+        sea_level: SeaLevel = None,
+        dirichlet: Dirichlet = None,
+        band: Band = None,
+        channel: Channel = None,
+        dtype: DtypeOpt = Dtype.float32,
+        cog: Cog = False,
+        co: CreationOptions = None,
+        overwrite: Overwrite = False,
+        preview: Preview = None,
+        verbose: Verbose = 0,
+        quiet: Quiet = 0,
+        parameter_values: dict[str, str | None] | None = None,
+    ) -> None:
+        with reported_errors(verbose - quiet):
+            from unerode_cli.cli.common import say
+            from unerode_cli.cli.progress import progress_bar
+            from unerode_cli.pipeline.erosion_job import ErosionJob, plan, run_job
+
+            job = ErosionJob(
+                backward=backward, source=source, output=output, process=process, dt=dt,
+                duration=duration, steps=steps, allow_substeps=not no_substep,
+                snapshot_every=snapshot_every, change_map=change_map, scheme=scheme.value,
+                method=method.value, outlets=outlets, sea_level=sea_level, dirichlet=dirichlet,
+                band=band, channel=channel, dtype=dtype.value, cog=cog, co=co,
+                overwrite=overwrite, preview=preview, parameter_values=parameter_values or {},
+            )
+            prepared = plan(job)
+            with progress_bar(prepared.steps, verb, verbose - quiet) as advance:
+                summary = run_job(prepared, on_step=advance,
+                                  on_note=lambda text: say(text, verbose - quiet))
+            say(summary, verbose - quiet)
+
+    command.__name__ = verb
+    command.__doc__ = (
+        "Unerode a DEM: run the processes backward in time (000 §3.2, slope limiter)."
+        if backward else
+        "Erode a DEM: run the processes forward in time (fluvial erosion with deposition)."
+    )
+    return command
+
+
+erode = _command(backward=False)
+unerode = _command(backward=True)

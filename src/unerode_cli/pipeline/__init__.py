@@ -1,0 +1,1 @@
+"""Runs: parameter maps, the time-stepping runner, snapshots and provenance."""

@@ -1,0 +1,123 @@
+"""The time-stepping runner: applies process changes step after step (DESIGN §3).
+
+Processes never edit the elevation: each returns a change, and the runner applies it, splits a
+step between several processes in the given order (operator splitting), sub-steps a process
+whose stable time step (CFL) is shorter than the step, and reports progress and snapshots.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from unerode_cli.errors import InputError
+
+
+@dataclass
+class Budget:
+    """Volumes (m³) moved by a process over a run: eroded, deposited, left through outlets."""
+
+    eroded: float = 0.0
+    deposited: float = 0.0
+    outflux: float = 0.0
+
+    def add(self, eroded: float, deposited: float, outflux: float) -> None:
+        self.eroded += eroded
+        self.deposited += deposited
+        self.outflux += outflux
+
+    @property
+    def residual(self) -> float:
+        """eroded − deposited − outflux (m³); zero for a mass-conserving process."""
+        return self.eroded - self.deposited - self.outflux
+
+
+@dataclass(frozen=True)
+class Change:
+    """What one (sub-)step of a process does: Δh (m) and the volumes it moved (m³)."""
+
+    dh: np.ndarray
+    eroded: float
+    deposited: float
+    outflux: float
+
+
+class Process(Protocol):
+    """A surface process bound to its grid, boundaries and parameters."""
+
+    name: str
+
+    def stable_dt(self, elevation: np.ndarray) -> float:
+        """Largest stable |dt| (y) on this elevation (inf when unconstrained)."""
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        """The change of one step of ``dt`` years (negative: backward in time)."""
+
+
+@dataclass
+class RunReport:
+    """Totals of a run."""
+
+    steps: int = 0
+    substeps: dict[str, int] = field(default_factory=dict)
+    budgets: dict[str, Budget] = field(default_factory=dict)
+    elapsed_years: float = 0.0
+
+
+def substeps_needed(dt: float, stable: float) -> int:
+    """Number of equal sub-steps so that each is within the stable |dt|."""
+    if not math.isfinite(stable):
+        return 1
+    if stable <= 0.0:
+        raise RuntimeError("a process reported a non-positive stable time step")
+    return max(1, math.ceil(abs(dt) / stable * (1.0 - 1e-12)))
+
+
+def run(
+    elevation: np.ndarray,
+    processes: Sequence[Process],
+    dt: float,
+    steps: int,
+    allow_substeps: bool = True,
+    on_step: Callable[[int, np.ndarray], None] | None = None,
+    on_note: Callable[[str], None] | None = None,
+) -> tuple[np.ndarray, RunReport]:
+    """Advance ``elevation`` (m) by ``steps`` steps of ``dt`` years through ``processes``.
+
+    Within a step the processes are applied one after the other (operator splitting); each is
+    sub-stepped when its stable time step is shorter than ``dt`` (a note is given once per
+    process), or, with ``allow_substeps`` False, the run is refused (InputError).
+    ``on_step(i, h)`` is called after step i (1-based). The input array is not modified.
+    """
+    if dt == 0.0 or not math.isfinite(dt):
+        raise InputError("the time step must be a non-zero number of years.")
+    h = np.array(elevation, dtype=np.float64, copy=True)
+    report = RunReport(substeps={p.name: 0 for p in processes},
+                       budgets={p.name: Budget() for p in processes})
+    noted: set[str] = set()
+    for i in range(1, steps + 1):
+        for process in processes:
+            n_sub = substeps_needed(dt, process.stable_dt(h))
+            if n_sub > 1 and not allow_substeps:
+                raise InputError(
+                    f"the {process.name} time step of {abs(dt):g} years is unstable here "
+                    f"(stable: ≤ {abs(dt) / n_sub:.4g} years); lower --dt or allow sub-steps."
+                )
+            if n_sub > 1 and process.name not in noted and on_note is not None:
+                on_note(f"note: {process.name} is sub-stepped ({n_sub} sub-steps of "
+                        f"{abs(dt) / n_sub:.4g} years at step {i}) to stay stable (CFL).")
+                noted.add(process.name)
+            for _ in range(n_sub):
+                change = process.advance(h, dt / n_sub)
+                h += change.dh
+                report.budgets[process.name].add(change.eroded, change.deposited, change.outflux)
+            report.substeps[process.name] += n_sub
+        report.steps = i
+        report.elapsed_years = i * dt
+        if on_step is not None:
+            on_step(i, h)
+    return h, report
