@@ -4,6 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 DEMO   := demo_out
+SAMPLE := sample_dems/valley_utm32n_30m.tif
 
 .PHONY: venv install test test-all demo bench lint clean
 
@@ -25,12 +26,20 @@ test-all: $(STAMP)
 
 demo: $(STAMP)
 	mkdir -p $(DEMO)
-	$(BIN)/unerode-cli info sample_dems/valley_utm32n_30m.tif
-	$(BIN)/unerode-cli convert sample_dems/valley_utm32n_30m.tif $(DEMO)/valley.exr --overwrite
-	$(BIN)/unerode-cli preview sample_dems/valley_utm32n_30m.tif $(DEMO)/valley.png --overwrite
-	@echo "demo outputs in $(DEMO)/ (preview: $(DEMO)/valley.png)"
+	$(BIN)/unerode-cli info $(SAMPLE)
+	$(BIN)/unerode-cli flow $(SAMPLE) $(DEMO)/discharge.tif --sea-level 0 \
+		--preview $(DEMO)/discharge.png --overwrite
+	$(BIN)/unerode-cli unerode $(SAMPLE) $(DEMO)/valley_past.tif --process fluvial \
+		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 \
+		--change-map $(DEMO)/valley_past_change.tif --preview $(DEMO)/valley_past.png --overwrite
+	$(BIN)/unerode-cli erode $(SAMPLE) $(DEMO)/valley_future.tif --process fluvial \
+		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 \
+		--change-map $(DEMO)/valley_future_change.tif --preview $(DEMO)/valley_future.png --overwrite
+	$(BIN)/unerode-cli convert $(DEMO)/valley_past.tif $(DEMO)/valley_past.exr --overwrite
+	@echo "demo outputs in $(DEMO)/ (previews: $(DEMO)/*.png)"
 
 bench: $(STAMP)
+	$(BIN)/python -m pip install --quiet fastscapelib || echo "fastscapelib unavailable: comparison skipped"
 	$(BIN)/python bench/run.py
 
 lint: $(STAMP)

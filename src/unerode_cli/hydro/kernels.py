@@ -2,60 +2,79 @@
 
 Arrays are flattened row-major (row 0 = north); the flat index of cell (row, col) is
 ``row * nx + col``. The 8 neighbours of a cell are numbered 0..7 in row-major order of their
-offsets ``(-1,-1), (-1,0), (-1,1), (0,-1), (0,1), (1,-1), (1,0), (1,1)``, so the neighbour
-``k`` of a cell sees that cell as its neighbour ``7 - k``.
+offsets ``(-1,-1), (-1,0), (-1,1), (0,-1), (0,1), (1,-1), (1,0), (1,1)``.
 
-Flow is stored as ``weights: float64[ny*nx, 8]``: the fraction of a cell's flow that goes to
-each neighbour (0 where the neighbour is not a receiver). Receivers are exactly the neighbours
-with a positive weight; the weights of a cell that has receivers sum to 1.
+Receivers are not stored: they are read off the routing surface ``zf`` (the elevation after
+priority-flood+ε, +inf on nodata) and the outlet mask. The receivers of a valid non-outlet cell
+are its strictly lower neighbours (all of them for multiple flow directions, the steepest one
+for D8); outlets and nodata cells have none. A nodata neighbour (+inf) is never lower, so
+nodata cells never receive flow.
 """
 
 from __future__ import annotations
 
 import numba
 import numpy as np
+from numba.extending import overload
 
 DROW = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.int64)
 DCOL = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.int64)
+# Smallest rise (m) given to a filled cell above the cell that floods it. One ulp alone would
+# make slopes near 0 m denormal, or underflow to 0 once divided by a distance.
+FILL_EPSILON = 1e-9
+
+
+@numba.njit(cache=True)
+def inverse_distances(dx, dy):
+    """float64[8] inverse of the distance (1/m) to each neighbour: dx east-west, dy
+    north-south, sqrt(dx² + dy²) on diagonals."""
+    d = 1.0 / np.sqrt(dx * dx + dy * dy)
+    return np.array([d, 1.0 / dy, d, 1.0 / dx, 1.0 / dx, d, 1.0 / dy, d])
 
 
 @numba.njit(cache=True, inline="always")
-def _heap_push(keys, vals, size, key, val):
-    """Push (key, val) on the binary min-heap held in keys[:size], vals[:size]; new size."""
+def _heap_push(heap, size, key, val):
+    """Push (key, val) on the 4-ary min-heap held in heap[:size] as rows (key, val); returns
+    the new size. Values are flat cell indices stored exactly as float64."""
     pos = size
     while pos > 0:
-        parent = (pos - 1) >> 1
-        if keys[parent] <= key:
+        parent = (pos - 1) >> 2
+        if heap[parent, 0] <= key:
             break
-        keys[pos] = keys[parent]
-        vals[pos] = vals[parent]
+        heap[pos, 0] = heap[parent, 0]
+        heap[pos, 1] = heap[parent, 1]
         pos = parent
-    keys[pos] = key
-    vals[pos] = val
+    heap[pos, 0] = key
+    heap[pos, 1] = val
     return size + 1
 
 
 @numba.njit(cache=True, inline="always")
-def _heap_pop(keys, vals, size):
-    """Remove the root of the min-heap held in keys[:size]; returns (its value, new size)."""
-    top = vals[0]
+def _heap_pop(heap, size):
+    """Remove the root of the 4-ary min-heap held in heap[:size]; returns (its value as a
+    flat index, the new size)."""
+    top = np.int64(heap[0, 1])
     size -= 1
-    key = keys[size]
-    val = vals[size]
+    key = heap[size, 0]
+    val = heap[size, 1]
     pos = 0
     while True:
-        child = 2 * pos + 1
-        if child >= size:
+        first = 4 * pos + 1
+        if first >= size:
             break
-        if child + 1 < size and keys[child + 1] < keys[child]:
-            child += 1
-        if keys[child] >= key:
+        best = first
+        best_key = heap[first, 0]
+        for child in range(first + 1, min(first + 4, size)):
+            if heap[child, 0] < best_key:
+                best_key = heap[child, 0]
+                best = child
+        if best_key >= key:
             break
-        keys[pos] = keys[child]
-        vals[pos] = vals[child]
-        pos = child
-    keys[pos] = key
-    vals[pos] = val
+        heap[pos, 0] = best_key
+        heap[pos, 1] = heap[best, 1]
+        pos = best
+    heap[pos, 0] = key
+    heap[pos, 1] = val
     return top, size
 
 
@@ -63,9 +82,12 @@ def _heap_pop(keys, vals, size):
 def priority_flood_epsilon(z, valid, outlets):
     """Priority-flood+ε (Barnes, Lehman & Mulla 2014, Algorithm 3) on a routing copy of ``z``.
 
-    Seeded from the outlets, every other valid cell reached is raised to at least the next
-    representable float above the cell that floods it, so that it has a strictly lower valid
-    neighbour. Nodata cells are never entered. ``z`` is not modified.
+    Seeded from the outlets, every other valid cell reached is raised to at least ε above the
+    cell that floods it, ε = max(FILL_EPSILON, one ulp), so that it has a strictly lower valid
+    neighbour. Cells are taken from the priority queue and from the pit queue (FIFO) whichever
+    is lower, the priority queue on ties, so cells leave in non-decreasing order of the
+    routing surface: that sequence is an order in which every cell comes after all of its
+    strictly lower neighbours. ``z`` is not modified; nodata cells are never entered.
 
     Args:
         z: float64[ny, nx] elevation (m).
@@ -73,192 +95,212 @@ def priority_flood_epsilon(z, valid, outlets):
         outlets: bool[ny, nx] valid cells that drain out of the domain.
 
     Returns:
-        (filled float64[ny, nx], number of valid cells reached, outlets included).
+        (zf float64[ny, nx] routing surface, +inf on nodata;
+         int64[k] flat indices of the k valid cells reached, outlets included, in reverse
+         order of leaving the queues: every cell before its strictly lower neighbours).
     """
     ny, nx = z.shape
     n = ny * nx
-    zf = z.ravel().copy()
+    zf = np.empty(n, dtype=np.float64)
+    closed = np.empty(n, dtype=np.bool_)
+    zin = z.ravel()
     ok = valid.ravel()
     out = outlets.ravel()
-    closed = np.zeros(n, dtype=np.bool_)
-    keys = np.empty(n, dtype=np.float64)
-    vals = np.empty(n, dtype=np.int64)
+    heap = np.empty((n, 2), dtype=np.float64)
     size = 0
+    for i in range(n):
+        if ok[i]:
+            zf[i] = zin[i]
+            closed[i] = out[i]
+            if out[i]:
+                size = _heap_push(heap, size, zin[i], i)
+        else:
+            zf[i] = np.inf
+            closed[i] = True
     pit = np.empty(n, dtype=np.int64)
     pit_head = 0
     pit_tail = 0
-    reached = 0
-    for i in range(n):
-        if out[i] and ok[i]:
-            closed[i] = True
-            size = _heap_push(keys, vals, size, zf[i], i)
-            reached += 1
+    descending = np.empty(n, dtype=np.int64)
+    count = 0
     while size > 0 or pit_head < pit_tail:
-        if pit_head < pit_tail:
+        if pit_head < pit_tail and (size == 0 or zf[pit[pit_head]] < heap[0, 0]):
             c = pit[pit_head]
             pit_head += 1
         else:
-            c, size = _heap_pop(keys, vals, size)
+            c, size = _heap_pop(heap, size)
+        count += 1
+        descending[n - count] = c
         r = c // nx
         col = c - r * nx
         zc = zf[c]
+        lifted = max(zc + FILL_EPSILON, np.nextafter(zc, np.inf))
         for k in range(8):
             rr = r + DROW[k]
             cc = col + DCOL[k]
             if rr < 0 or rr >= ny or cc < 0 or cc >= nx:
                 continue
             j = rr * nx + cc
-            if closed[j] or not ok[j]:
+            if closed[j]:
                 continue
             closed[j] = True
-            reached += 1
             if zf[j] <= zc:
-                zf[j] = np.nextafter(zc, np.inf)
+                zf[j] = lifted
                 pit[pit_tail] = j
                 pit_tail += 1
             else:
-                size = _heap_push(keys, vals, size, zf[j], j)
-    return zf.reshape(ny, nx), reached
+                size = _heap_push(heap, size, zf[j], j)
+    return zf.reshape(ny, nx), descending[n - count :]
 
 
-@numba.njit(cache=True, parallel=True)
-def flow_weights(zf, valid, outlets, dx, dy, single):
-    """Receivers and flow fractions of every cell from a depression-free surface.
+@numba.njit(cache=True, inline="always")
+def flow_fractions(zf, i, ny, nx, off, inv_dist, single, frac):
+    """Fill ``frac[0..7]`` with the fraction of the flow of cell ``i`` sent to each neighbour;
+    returns whether the cell lies off the grid border (then every neighbour exists).
 
-    Multiple flow direction (000 Eq. 6): each strictly lower valid neighbour receives a
-    fraction proportional to the slope (Δh / distance) towards it. With ``single`` (D8), the
-    steepest neighbour receives everything; ties go to the first neighbour in row-major order.
-    Distances are ``dx`` east-west, ``dy`` north-south and ``sqrt(dx² + dy²)`` on diagonals (m).
-    Outlets and nodata cells have no receivers.
+    Multiple flow directions (000 Eq. 6): every strictly lower neighbour gets a fraction
+    proportional to the slope (Δh / distance, m/m) towards it. ``single`` (D8): the steepest
+    neighbour gets everything; ties go to the first neighbour in row-major order. ``frac`` is
+    all 0 when no neighbour is lower. The caller excludes outlets, which have no receivers.
 
-    Returns:
-        weights float64[ny*nx, 8].
+    Args:
+        zf: float64[ny*nx] routing surface (+inf on nodata), ``off``: int64[8] flat offsets
+        of the neighbours, ``inv_dist``: float64[8] inverse distances (1/m).
     """
-    ny, nx = zf.shape
-    diag = np.sqrt(dx * dx + dy * dy)
-    dist = np.array([diag, dy, diag, dx, dx, diag, dy, diag])
-    w = np.zeros((ny * nx, 8), dtype=np.float64)
-    for r in numba.prange(ny):
-        for col in range(nx):
-            if not valid[r, col] or outlets[r, col]:
-                continue
-            i = r * nx + col
-            h = zf[r, col]
-            total = 0.0
-            best = -1
-            best_slope = 0.0
-            for k in range(8):
-                rr = r + DROW[k]
-                cc = col + DCOL[k]
-                if rr < 0 or rr >= ny or cc < 0 or cc >= nx or not valid[rr, cc]:
-                    continue
-                drop = h - zf[rr, cc]
-                if drop > 0.0:
-                    s = drop / dist[k]
-                    if single:
-                        if s > best_slope:
-                            best_slope = s
-                            best = k
-                    else:
-                        w[i, k] = s
-                        total += s
-            if single:
-                if best >= 0:
-                    w[i, best] = 1.0
-            elif total > 0.0:
-                for k in range(8):
-                    w[i, k] /= total
-    return w
+    r = i // nx
+    col = i - r * nx
+    interior = 0 < r < ny - 1 and 0 < col < nx - 1
+    h = zf[i]
+    total = 0.0
+    for k in range(8):
+        s = 0.0
+        if interior or (0 <= r + DROW[k] < ny and 0 <= col + DCOL[k] < nx):
+            s = max(h - zf[i + off[k]], 0.0) * inv_dist[k]
+        frac[k] = s
+        total += s
+    if single:
+        best = 0
+        best_slope = frac[0]
+        for k in range(1, 8):
+            steeper = frac[k] > best_slope
+            best = k if steeper else best
+            best_slope = frac[k] if steeper else best_slope
+        for k in range(8):
+            frac[k] = 0.0
+        if best_slope > 0.0:
+            frac[best] = 1.0
+    else:
+        scale = 1.0 / total if total > 0.0 else 0.0
+        for k in range(8):
+            frac[k] *= scale
+    return interior
+
+
+def add_share(acc, j, share, value):
+    """``acc[j] += share * value``; for ``acc`` of shape (n, 2), ``value`` is a pair routed
+    with the same share (compiled by numba only, see ``_add_share``)."""
+    raise NotImplementedError("numba only")
+
+
+@overload(add_share)
+def _add_share(acc, j, share, value):
+    if acc.ndim == 1:
+
+        def add_one(acc, j, share, value):
+            acc[j] += share * value
+
+        return add_one
+
+    def add_pair(acc, j, share, value):
+        acc[j, 0] += share * value[0]
+        acc[j, 1] += share * value[1]
+
+    return add_pair
 
 
 @numba.njit(cache=True)
-def topological_order(weights, valid, outlets):
-    """Valid cells ordered so that every cell comes before all of its receivers.
-
-    Kahn's algorithm run upstream from the outlets: a cell is taken once all its receivers
-    have been taken; the result is then reversed (donors first, "descending" order of
-    000 Algorithm 1). Cells that cannot reach an outlet are left out.
-
-    Returns:
-        int64[k] flat indices, k ≤ number of valid cells.
-    """
-    ny, nx = valid.shape
-    n = ny * nx
-    ok = valid.ravel()
-    out = outlets.ravel()
-    pending = np.zeros(n, dtype=np.int8)
-    for i in range(n):
-        cnt = 0
+def spread(acc, i, off, frac, value, interior):
+    """Route ``value`` from cell ``i`` to its receivers: ``acc[i + off[k]] += frac[k] * value``
+    (see ``add_share`` for two quantities at once)."""
+    if interior:
         for k in range(8):
-            if weights[i, k] > 0.0:
-                cnt += 1
-        pending[i] = cnt
-    stack = np.empty(n, dtype=np.int64)
-    top = 0
-    for i in range(n):
-        if ok[i] and out[i]:
-            stack[top] = i
-            top += 1
-    ascending = np.empty(n, dtype=np.int64)
-    count = 0
-    while top > 0:
-        top -= 1
-        c = stack[top]
-        ascending[count] = c
-        count += 1
-        r = c // nx
-        col = c - r * nx
+            add_share(acc, i + off[k], frac[k], value)
+    else:
         for k in range(8):
-            rr = r + DROW[k]
-            cc = col + DCOL[k]
-            if rr < 0 or rr >= ny or cc < 0 or cc >= nx:
-                continue
-            j = rr * nx + cc
-            if weights[j, 7 - k] > 0.0:
-                pending[j] -= 1
-                if pending[j] == 0:
-                    stack[top] = j
-                    top += 1
-    return ascending[:count][::-1].copy()
+            if frac[k] > 0.0:
+                add_share(acc, i + off[k], frac[k], value)
 
 
 @numba.njit(cache=True)
-def accumulate_flow(order, weights, nx, source):
+def neighbour_offsets(nx):
+    """int64[8] flat-index offsets of the 8 neighbours on a grid of ``nx`` columns."""
+    return DROW * nx + DCOL
+
+
+@numba.njit(cache=True)
+def accumulate_flow(zf, outlets, order, dx, dy, single, source):
     """Upstream integral of ``source`` (000 Eq. 5): acc = source + Σ_donors α · acc(donor).
 
     Args:
-        order: int64 flat indices, donors before receivers (cells not listed stay 0).
-        weights: float64[n, 8] flow fractions.
-        nx: number of columns.
-        source: float64[n] per-cell contribution (e.g. p · cell area, m³/y), or float64[1]
-            for the same contribution everywhere.
+        zf: float64[ny, nx] routing surface (+inf on nodata).
+        outlets: bool[ny, nx] sinks (they keep what they receive).
+        order: int64 flat indices of the valid cells, every cell before its receivers.
+        dx, dy: cell sizes (m).
+        single: D8 instead of multiple flow directions.
+        source: float64[ny*nx] per-cell contribution (e.g. p · cell area, m³/y), or
+            float64[1] for the same contribution everywhere.
 
     Returns:
-        float64[n] accumulated values.
+        float64[ny*nx] accumulated values, 0 on cells not in ``order``.
     """
-    acc = np.zeros(weights.shape[0], dtype=np.float64)
+    ny, nx = zf.shape
+    z = zf.ravel()
+    out = outlets.ravel()
+    off = neighbour_offsets(nx)
+    inv_dist = inverse_distances(dx, dy)
+    frac = np.empty(8, dtype=np.float64)
+    acc = np.zeros(ny * nx, dtype=np.float64)
     uniform = source.size == 1
     for idx in range(order.size):
         i = order[idx]
         a = acc[i] + (source[0] if uniform else source[i])
         acc[i] = a
-        for k in range(8):
-            wk = weights[i, k]
-            if wk > 0.0:
-                acc[i + DROW[k] * nx + DCOL[k]] += wk * a
+        if not out[i]:
+            interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+            spread(acc, i, off, frac, a, interior)
     return acc
 
 
-@numba.njit(cache=True, parallel=True)
-def steepest_receiver(weights, nx):
-    """Flat index of the receiver with the largest flow fraction (the steepest one, first in
-    row-major order on ties), -1 for cells without receivers."""
-    n = weights.shape[0]
-    rcv = np.full(n, -1, dtype=np.int64)
-    for i in numba.prange(n):
-        best = 0.0
-        for k in range(8):
-            if weights[i, k] > best:
-                best = weights[i, k]
-                rcv[i] = i + DROW[k] * nx + DCOL[k]
+@numba.njit(cache=True)
+def fraction_field(zf, outlets, dx, dy, single):
+    """float64[ny*nx, 8] flow fractions of every cell to its 8 neighbours (0 for outlets and
+    nodata)."""
+    ny, nx = zf.shape
+    z = zf.ravel()
+    out = outlets.ravel()
+    off = neighbour_offsets(nx)
+    inv_dist = inverse_distances(dx, dy)
+    res = np.zeros((ny * nx, 8), dtype=np.float64)
+    for i in range(ny * nx):
+        if not out[i] and z[i] < np.inf:
+            flow_fractions(z, i, ny, nx, off, inv_dist, single, res[i])
+    return res
+
+
+@numba.njit(cache=True)
+def steepest_receiver(zf, outlets, dx, dy):
+    """int64[ny*nx] flat index of the steepest lower neighbour (first in row-major order on
+    ties), -1 for outlets, nodata cells and cells without a lower neighbour."""
+    ny, nx = zf.shape
+    z = zf.ravel()
+    out = outlets.ravel()
+    off = neighbour_offsets(nx)
+    inv_dist = inverse_distances(dx, dy)
+    frac = np.empty(8, dtype=np.float64)
+    rcv = np.full(ny * nx, -1, dtype=np.int64)
+    for i in range(ny * nx):
+        if not out[i] and z[i] < np.inf:
+            flow_fractions(z, i, ny, nx, off, inv_dist, True, frac)
+            k = np.argmax(frac)
+            if frac[k] > 0.0:
+                rcv[i] = i + off[k]
     return rcv

@@ -27,9 +27,7 @@ def parse_edges(spec: str) -> frozenset[str]:
     letters = [part.strip() for part in text.split(",")]
     unknown = [part for part in letters if part not in EDGE_NAMES]
     if unknown:
-        raise ValueError(
-            f"edge specification {spec!r} must be 'all', 'none' or a comma list of N, E, S, W"
-        )
+        raise ValueError(f"edge specification {spec!r} must be 'all', 'none' or a comma list of N, E, S, W")
     return frozenset(letters)
 
 
@@ -81,9 +79,7 @@ def outlet_mask(
         mask |= _touches_nodata(valid)
     if dirichlet is not None:
         if dirichlet.shape != grid.shape:
-            raise ValueError(
-                f"Dirichlet mask has shape {dirichlet.shape}, the grid has {grid.shape}"
-            )
+            raise ValueError(f"Dirichlet mask has shape {dirichlet.shape}, the grid has {grid.shape}")
         mask |= dirichlet.astype(bool)
     if sea_level is not None:
         if elevation is None:
@@ -97,6 +93,5 @@ def require_outlets(outlets: np.ndarray) -> None:
     """Raise ValueError when the mask holds no outlet at all."""
     if not outlets.any():
         raise ValueError(
-            "the domain has no outlet: choose draining edges, nodata borders, "
-            "Dirichlet nodes or a sea level"
+            "the domain has no outlet: choose draining edges, nodata borders, Dirichlet nodes or a sea level"
         )

@@ -20,36 +20,47 @@ METHODS: tuple[str, ...] = ("mfd", "d8")
 class Routing:
     """How water flows over one surface.
 
+    Receivers are read off ``filled``: the receivers of a valid non-outlet cell are its
+    strictly lower neighbours (all of them with ``"mfd"``, the steepest one with ``"d8"``).
+
     Attributes:
         grid: the grid routed on.
         method: ``"mfd"`` (multiple flow directions, 000 Eq. 6) or ``"d8"`` (steepest descent).
         filled: float64[ny, nx] routing surface (m): the elevation after priority-flood+ε,
-            equal to it outside depressions; nodata cells keep their input value.
+            equal to it outside depressions; +inf on nodata.
         outlets: bool[ny, nx] sinks of the flow.
-        weights: float64[ny*nx, 8] fraction of a cell's flow sent to each neighbour, the
-            neighbours in row-major order of offsets (-1,-1), (-1,0), (-1,1), (0,-1), (0,1),
-            (1,-1), (1,0), (1,1); a neighbour is a receiver iff its weight is > 0.
-        order: int64 flat indices of all valid cells, every cell before its receivers
-            (descending order of the routing surface along each flow path).
+        order: int64 flat indices of all valid cells sorted by descending routing surface,
+            so every cell comes before its receivers (000 Algorithm 1).
     """
 
     grid: Grid
     method: str
     filled: np.ndarray
     outlets: np.ndarray
-    weights: np.ndarray
     order: np.ndarray
+
+    @property
+    def single(self) -> bool:
+        """Whether each cell has a single receiver (D8)."""
+        return self.method == "d8"
 
     def receivers(self) -> np.ndarray:
         """int64[ny, nx] flat index of the steepest receiver (the D8 receiver; with MFD the
-        neighbour of largest weight), -1 for outlets and nodata cells."""
-        ny, nx = self.grid.shape
-        return kernels.steepest_receiver(self.weights, nx).reshape(ny, nx)
+        neighbour of largest fraction), -1 for outlets and nodata cells."""
+        grid = self.grid
+        receivers = kernels.steepest_receiver(self.filled, self.outlets, grid.dx, grid.dy)
+        return receivers.reshape(grid.shape)
+
+    def fractions(self) -> np.ndarray:
+        """float64[ny, nx, 8] fraction of each cell's flow sent to each neighbour, neighbours
+        in row-major order of offsets (-1,-1), (-1,0), (-1,1), (0,-1), (0,1), (1,-1), (1,0),
+        (1,1); 0 for non-receivers, outlets and nodata (000 Eq. 6)."""
+        grid = self.grid
+        fractions = kernels.fraction_field(self.filled, self.outlets, grid.dx, grid.dy, self.single)
+        return fractions.reshape(*grid.shape, 8)
 
 
-def route(
-    elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method = "mfd"
-) -> Routing:
+def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method = "mfd") -> Routing:
     """Route flow over ``elevation`` (m) towards ``outlets``; the elevation is not modified.
 
     Depressions are handled by priority-flood+ε on a copy (Barnes et al. 2014), so every valid
@@ -64,24 +75,21 @@ def route(
     valid = grid.valid
     if elevation.shape != grid.shape or outlets.shape != grid.shape:
         raise ValueError(
-            f"elevation {elevation.shape} and outlets {outlets.shape} must have the grid's "
-            f"shape {grid.shape}"
+            f"elevation {elevation.shape} and outlets {outlets.shape} must have the grid's shape {grid.shape}"
         )
     outlets = np.ascontiguousarray(outlets, dtype=bool) & valid
     require_outlets(outlets)
     z = np.ascontiguousarray(elevation, dtype=np.float64)
     if not np.isfinite(z).all() and not np.isfinite(z[valid]).all():
         raise ValueError("the elevation has non-finite values inside the domain (not nodata)")
-    filled, reached = kernels.priority_flood_epsilon(z, valid, outlets)
-    unreached = int(np.count_nonzero(valid)) - reached
+    filled, order = kernels.priority_flood_epsilon(z, valid, outlets)
+    unreached = int(np.count_nonzero(valid)) - order.size
     if unreached:
         raise ValueError(
             f"{unreached} valid cells cannot drain to any outlet: add outlets in every "
             "separate part of the domain"
         )
-    weights = kernels.flow_weights(filled, valid, outlets, grid.dx, grid.dy, method == "d8")
-    order = kernels.topological_order(weights, valid, outlets)
-    return Routing(grid, method, filled, outlets, weights, order)
+    return Routing(grid, method, filled, outlets, order)
 
 
 def accumulate(routing: Routing, source: float | np.ndarray) -> np.ndarray:
@@ -92,7 +100,9 @@ def accumulate(routing: Routing, source: float | np.ndarray) -> np.ndarray:
     """
     grid = routing.grid
     src = flat_field(source, grid.shape, "source") * grid.cell_area
-    acc = kernels.accumulate_flow(routing.order, routing.weights, grid.shape[1], src)
+    acc = kernels.accumulate_flow(
+        routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single, src
+    )
     return acc.reshape(grid.shape)
 
 

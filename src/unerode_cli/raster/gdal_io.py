@@ -17,8 +17,14 @@ from unerode_cli.errors import InputError
 from unerode_cli.raster.cellsize import cell_size_metres
 from unerode_cli.raster.terrain import Terrain
 
-#: Metadata keys carried from input to output.
-KEPT_TAGS = ("AREA_OR_POINT", "UNERODE_HISTORY")
+#: Metadata carried from input to output: these keys, and every key starting with "UNERODE_".
+KEPT_TAGS = ("AREA_OR_POINT",)
+KEPT_PREFIX = "UNERODE_"
+
+
+def kept(key: str) -> bool:
+    """Whether a metadata key travels from input to output."""
+    return key in KEPT_TAGS or key.startswith(KEPT_PREFIX)
 
 #: GeoTIFF defaults for float DEMs (DESIGN §5); ``--co`` entries override them.
 GTIFF_DEFAULTS = {
@@ -67,7 +73,7 @@ def read_gdal(path: Path, band: int | None = None) -> Terrain:
         valid = src.read_masks(band) > 0
         crs_wkt = src.crs.to_wkt() if src.crs else ""
         size = cell_size_metres(crs_wkt, src.transform, data.shape, str(path))
-        tags = {k: v for k, v in src.tags().items() if k in KEPT_TAGS}
+        tags = {k: v for k, v in src.tags().items() if kept(k)}
         if src.units and src.units[band - 1]:
             tags["UNIT"] = src.units[band - 1]
         nodata = src.nodatavals[band - 1]
@@ -110,7 +116,7 @@ def write_gdal(terrain: Terrain, path: Path, options: WriteOptions) -> None:
     try:
         with rasterio.open(path, "w", **profile) as dst:
             dst.write(data, 1)
-            dst.update_tags(**{k: v for k, v in terrain.tags.items() if k in KEPT_TAGS})
+            dst.update_tags(**{k: v for k, v in terrain.tags.items() if kept(k)})
             if "UNIT" in terrain.tags:
                 dst.units = (terrain.tags["UNIT"],)
     except (RasterioIOError, DriverRegistrationError, ValueError) as exc:

@@ -1,0 +1,250 @@
+"""Fluvial erosion with sediment deposition, forward and backward in time (000 §3).
+
+    ∂h/∂t = U − K·Q^m·|∇h|^n + (K_d/Q)·Q_s                                   (000 Eq. 3)
+
+One step runs 000 Algorithm 1: a single pass over the cells in descending order of the
+routing surface computes the discharge Q (000 Eq. 5), the new elevation (000 Eq. 8, deposition
+from the sediment flux arriving from upstream) and the sediment flux leaving each cell
+(000 Eq. 7). Forward steps (dt > 0) use the downstream slope (000 Eq. 9); backward steps
+(dt < 0, unerosion and un-deposition) the limited blend of upwind and centred slopes
+(000 Eq. 10–12), or the plain upwind slope for comparison.
+
+The numba kernels are imported on first use, so that reading ``PARAMETERS`` (CLI help) does
+not load numba.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+
+from unerode_cli.grid import Grid
+from unerode_cli.processes.parameters import ParamSpec
+
+if TYPE_CHECKING:
+    from unerode_cli.hydro.routing import Routing
+
+Scheme = Literal["limiter", "upwind"]
+SCHEMES: tuple[str, ...] = ("limiter", "upwind")
+
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        "uplift",
+        "m/y",
+        0.0,
+        "uplift rate U (000 Eq. 3); negative for subsidence",
+        raster=True,
+        symbol="U",
+    ),
+    ParamSpec(
+        "k",
+        "m^(1-3m)·y^(m-1)",
+        1e-5,
+        "fluvial erodibility K for a discharge Q in m³/y (000 Eq. 1); the default is not "
+        "000 Table 2's range, which is for a discharge per unit width",
+        minimum=0.0,
+        raster=True,
+        symbol="K",
+    ),
+    ParamSpec(
+        "k_d",
+        "m/y",
+        1.0,
+        "deposition coefficient K_d (000 Eq. 3): Yuan et al. 2019's G times the mean "
+        "precipitation (default: G = 1 at 1 m/y); 0 gives the detachment-limited stream power law",
+        minimum=0.0,
+        raster=True,
+        symbol="K_d",
+    ),
+    ParamSpec(
+        "precipitation",
+        "m/y",
+        1.0,
+        "precipitation rate p that makes the discharge Q (000 Eq. 2; 000 Table 2: 0-2 m/y)",
+        minimum=0.0,
+        raster=True,
+        symbol="p",
+    ),
+    ParamSpec("m", "1", 0.4, "discharge exponent m (000 Eq. 1, Table 2)", 0.0, 2.0),
+    ParamSpec("n", "1", 1.0, "slope exponent n (000 Eq. 1, Table 2)", 0.5, 4.0),
+)
+_SPECS = {spec.name: spec for spec in PARAMETERS}
+
+
+@dataclass(frozen=True)
+class FluvialParams:
+    """Parameters of 000 Eq. 3; the four rates may be rasters (float[ny, nx]) on the grid.
+
+    Attributes:
+        uplift: U (m/y).
+        k: K (m^(1−3m)·y^(m−1), with Q in m³/y).
+        k_d: K_d (m/y).
+        precipitation: p (m/y).
+        m, n: stream power exponents (dimensionless).
+    """
+
+    uplift: float | np.ndarray = _SPECS["uplift"].default
+    k: float | np.ndarray = _SPECS["k"].default
+    k_d: float | np.ndarray = _SPECS["k_d"].default
+    precipitation: float | np.ndarray = _SPECS["precipitation"].default
+    m: float = _SPECS["m"].default
+    n: float = _SPECS["n"].default
+
+    def validate(self, grid: Grid) -> None:
+        """Raise ValueError (one sentence) for a value out of range inside the domain or a
+        raster of another shape than the grid (raster values on nodata cells are not read)."""
+        for field in fields(self):
+            value = getattr(self, field.name)
+            if np.ndim(value):
+                if np.shape(value) != grid.shape:
+                    raise ValueError(
+                        f"parameter {field.name} has shape {np.shape(value)}, the grid has {grid.shape}"
+                    )
+                value = np.asarray(value)[grid.valid]
+            _SPECS[field.name].check(value)
+
+
+@dataclass(frozen=True)
+class MassBudget:
+    """Volumes moved by one step (m³), uplift excluded.
+
+    With e = Δh − U·dt the elevation change of a free (non-outlet) cell due to the process
+    alone: ``eroded`` = Σ max(0, −e)·A, ``deposited`` = Σ max(0, e)·A, and ``outflux`` =
+    dt·Σ Q̃s over the outlets, the volume that leaves the domain (negative backward in time,
+    when un-deposition brings material back). Conservation: eroded − deposited − outflux = 0.
+    """
+
+    eroded: float
+    deposited: float
+    outflux: float
+
+    @property
+    def residual(self) -> float:
+        """eroded − deposited − outflux (m³); zero up to rounding."""
+        return self.eroded - self.deposited - self.outflux
+
+
+@dataclass(frozen=True)
+class FluvialChange:
+    """What one fluvial step does to the terrain.
+
+    Attributes:
+        dh: float64[ny, nx] elevation change (m), uplift U·dt included; 0 on outlets and nodata.
+        sediment_flux: float64[ny, nx] Q_s (m³/y) leaving each cell; on outlets, what leaves
+            the domain there.
+        discharge: float64[ny, nx] water discharge Q (m³/y); 0 on nodata.
+        budget: the mass budget of the step.
+    """
+
+    dh: np.ndarray
+    sediment_flux: np.ndarray
+    discharge: np.ndarray
+    budget: MassBudget
+
+
+def _slope_mode(dt: float, scheme: str) -> int:
+    from unerode_cli.processes import fluvial_kernels as fk
+
+    if scheme not in SCHEMES:
+        raise ValueError(f"scheme must be one of {', '.join(SCHEMES)}, got {scheme!r}")
+    if dt >= 0:
+        return fk.DOWNSTREAM
+    return fk.LIMITED if scheme == "limiter" else fk.UPWIND
+
+
+def step(
+    elevation: np.ndarray,
+    grid: Grid,
+    outlets: np.ndarray,
+    params: FluvialParams,
+    dt: float,
+    routing: Routing | None = None,
+    scheme: Scheme = "limiter",
+    method: str = "mfd",
+) -> FluvialChange:
+    """One step of fluvial erosion and deposition (dt > 0) or their reversal (dt < 0).
+
+    Args:
+        elevation: float64[ny, nx] elevation h(t) (m); not modified.
+        grid: cell sizes and domain.
+        outlets: bool[ny, nx] base-level cells (outlets, Dirichlet nodes): they keep their
+            elevation and let sediment out.
+        params: the parameters of 000 Eq. 3.
+        dt: time step (y); negative to go back in time.
+        routing: the routing of ``elevation`` towards ``outlets`` (``unerode_cli.hydro.route``);
+            computed here with ``method`` when not given.
+        scheme: slope of backward steps: ``"limiter"`` (000 Eq. 12) or ``"upwind"`` (Eq. 10).
+        method: routing method when ``routing`` is not given: ``"mfd"`` or ``"d8"``.
+
+    Returns:
+        the change (Δh with the uplift U·dt included), the fluxes Q and Q_s and the mass budget.
+    """
+    from unerode_cli.hydro.fields import flat_field
+    from unerode_cli.hydro.routing import route
+    from unerode_cli.processes import fluvial_kernels as fk
+
+    params.validate(grid)
+    mode = _slope_mode(dt, scheme)
+    if routing is None:
+        routing = route(elevation, grid, outlets, method)
+    elif not np.array_equal(routing.outlets, outlets & grid.valid):
+        raise ValueError("the routing was computed with other outlets than the ones given")
+    h = np.ascontiguousarray(elevation, dtype=np.float64)
+    slope = fk.slope_magnitude(h, grid.valid, grid.dx, grid.dy, mode)
+    shape = grid.shape
+    dh, q, qs, erosion, deposition, outflow = fk.fluvial_sweep(
+        routing.filled,
+        routing.outlets,
+        routing.order,
+        grid.dx,
+        grid.dy,
+        routing.single,
+        slope,
+        flat_field(params.precipitation, shape, "precipitation"),
+        flat_field(params.uplift, shape, "uplift"),
+        flat_field(params.k, shape, "k"),
+        flat_field(params.k_d, shape, "k_d"),
+        float(params.m),
+        float(params.n),
+        float(dt),
+    )
+    removed, added = (erosion, deposition) if dt >= 0 else (deposition, erosion)
+    budget = MassBudget(abs(dt) * removed, abs(dt) * added, dt * outflow)
+    return FluvialChange(dh.reshape(shape), qs.reshape(shape), q.reshape(shape), budget)
+
+
+def max_stable_dt(
+    elevation: np.ndarray,
+    grid: Grid,
+    params: FluvialParams,
+    routing: Routing,
+    courant: float = 1.0,
+) -> float:
+    """Largest |dt| (y) for which the explicit stream power term is stable (CFL, 000 §6).
+
+    The stream power term moves elevation changes upstream at the speed
+    c = n·K·Q^m·|∇h|^(n−1) (m/y; K·Q^m for n = 1). Along a diagonal, the magnitude of the
+    downstream gradient (000 Eq. 9) reacts to the cell's own elevation with the weight
+    sqrt(1/dx² + 1/dy²), so the bound, valid in every flow direction, is
+
+        |dt| ≤ courant / (max c · sqrt(1/dx² + 1/dy²)),
+
+    i.e. K·Q^m·|dt|·√2/Δx ≤ 1 on a square grid. Returns ``inf`` when nothing erodes. The
+    deposition term does not restrict the step (000 §6).
+    """
+    from unerode_cli.hydro.fields import flat_field
+    from unerode_cli.hydro.routing import accumulate
+    from unerode_cli.processes import fluvial_kernels as fk
+
+    params.validate(grid)
+    h = np.ascontiguousarray(elevation, dtype=np.float64)
+    q = accumulate(routing, params.precipitation).ravel()
+    slope = fk.slope_magnitude(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM)
+    free = (grid.valid & ~routing.outlets).ravel()
+    k = flat_field(params.k, grid.shape, "k")
+    speed = fk.max_speed(q, slope, free, k, float(params.m), float(params.n))
+    if speed == 0.0:
+        return float("inf")
+    return courant / (speed * float(np.hypot(1.0 / grid.dx, 1.0 / grid.dy)))
