@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from affine import Affine
-
 from tests.cli.test_bad_input import assert_refused
 from tests.conftest import run_cli, write_geotiff
+
 from unerode_cli.raster.io import read_terrain
 
 

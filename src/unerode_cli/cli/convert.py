@@ -40,8 +40,8 @@ def convert(
     """Convert between GeoTIFF, EXR and other GDAL formats, keeping CRS, transform, nodata."""
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import load
-        from unerode_cli.pipeline.outputs import Outputs, save
         from unerode_cli.errors import InputError
+        from unerode_cli.pipeline.outputs import Outputs, save
 
         outputs = Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview)
         outputs.check(source)

@@ -10,8 +10,21 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
-    Band, Channel, Cog, CreationOptions, Dirichlet, Dtype, DtypeOpt, InputDem, Outlets, OutputDem,
-    Overwrite, Preview, Quiet, SeaLevel, Verbose,
+    Band,
+    Channel,
+    Cog,
+    CreationOptions,
+    Dirichlet,
+    Dtype,
+    DtypeOpt,
+    InputDem,
+    Outlets,
+    OutputDem,
+    Overwrite,
+    Preview,
+    Quiet,
+    SeaLevel,
+    Verbose,
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
 from unerode_cli.processes.fluvial import PARAMETERS as FLUVIAL_PARAMETERS

@@ -9,8 +9,19 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
-    Band, Channel, Cog, CreationOptions, Dirichlet, InputDem, Outlets, OutputDem, Overwrite,
-    Preview, Quiet, SeaLevel, Verbose,
+    Band,
+    Channel,
+    Cog,
+    CreationOptions,
+    Dirichlet,
+    InputDem,
+    Outlets,
+    OutputDem,
+    Overwrite,
+    Preview,
+    Quiet,
+    SeaLevel,
+    Verbose,
 )
 
 
@@ -48,10 +59,10 @@ def flow(
         import numpy as np
 
         from unerode_cli.cli.common import load
-        from unerode_cli.pipeline.outputs import Outputs, field_preview, save
         from unerode_cli.hydro import accumulate, route
         from unerode_cli.hydro.directions import esri_d8_codes
         from unerode_cli.pipeline.boundaries import boundaries_from_options
+        from unerode_cli.pipeline.outputs import Outputs, field_preview, save
         from unerode_cli.pipeline.parameter_maps import resolve
         from unerode_cli.processes.parameters import ParamSpec
 

@@ -9,7 +9,6 @@ from typing import Annotated
 import typer
 
 
-
 class Dtype(str, Enum):
     float32 = "float32"
     float64 = "float64"

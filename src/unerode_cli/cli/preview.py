@@ -28,8 +28,8 @@ def preview(
         from matplotlib import colormaps
 
         from unerode_cli.cli.common import load
-        from unerode_cli.pipeline.outputs import preview as write_preview
         from unerode_cli.errors import InputError
+        from unerode_cli.pipeline.outputs import preview as write_preview
         from unerode_cli.raster.paths import check_output
 
         check_output(png, overwrite, (dem,))

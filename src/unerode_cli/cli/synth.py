@@ -49,8 +49,8 @@ def synth(
     with reported_errors(verbose - quiet):
         import numpy as np
 
-        from unerode_cli.pipeline.outputs import Outputs, save
         from unerode_cli.errors import InputError
+        from unerode_cli.pipeline.outputs import Outputs, save
         from unerode_cli.raster.cellsize import cell_size_metres
         from unerode_cli.raster.georef import centred_transform, parse_crs
         from unerode_cli.raster.terrain import Terrain

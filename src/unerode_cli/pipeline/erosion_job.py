@@ -12,7 +12,7 @@ import numpy as np
 
 from unerode_cli.errors import InputError
 from unerode_cli.pipeline.boundaries import boundaries_from_options
-from unerode_cli.pipeline.outputs import Outputs, field_preview, save
+from unerode_cli.pipeline.outputs import Outputs, save
 from unerode_cli.pipeline.parameter_maps import resolve
 from unerode_cli.pipeline.registry import REGISTRY, parse_process_list
 from unerode_cli.pipeline.runner import Process, RunReport, run

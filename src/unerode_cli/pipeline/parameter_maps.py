@@ -40,21 +40,26 @@ def resolve(spec: ParamSpec, value: str | float, terrain: Terrain) -> float | np
 
     Raster values outside the domain (nodata) are ignored; inside it they must be finite.
     """
-    if isinstance(value, (int, float)):
-        resolved: float | np.ndarray = float(value)
+    number = _as_number(value)
+    if number is not None:
+        resolved: float | np.ndarray = number
+    elif not spec.raster:
+        raise InputError(f"parameter {spec.name} must be a number, got '{value}'.")
     else:
-        try:
-            resolved = float(value)
-        except ValueError:
-            if not spec.raster:
-                raise InputError(f"parameter {spec.name} must be a number, got '{value}'.") from None
-            layer = load_on_grid(Path(value), terrain, f"parameter {spec.name}")
-            valid = ~terrain.nodata_mask
-            if not np.isfinite(layer[valid]).all():
-                raise InputError(f"parameter raster {value} has nodata inside the DEM's domain.")
-            resolved = np.where(valid, layer, 0.0 if spec.minimum is None else spec.minimum)
+        layer = load_on_grid(Path(str(value)), terrain, f"parameter {spec.name}")
+        valid = ~terrain.nodata_mask
+        if not np.isfinite(layer[valid]).all():
+            raise InputError(f"parameter raster {value} has nodata inside the DEM's domain.")
+        resolved = np.where(valid, layer, 0.0 if spec.minimum is None else spec.minimum)
     try:
         spec.check(resolved)
     except ValueError as exc:
         raise InputError(f"{exc}.") from None
     return resolved
+
+
+def _as_number(value: str | float) -> float | None:
+    try:
+        return float(value)
+    except ValueError:
+        return None
