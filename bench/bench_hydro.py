@@ -51,7 +51,7 @@ def _fastscapelib_case(n: int, method: str, resolve_sinks: bool = True):
     operators = [fs.PFloodSinkResolver(), router] if resolve_sinks else [router]
     graph = fs.FlowGraph(grid, operators)
 
-    def work():
+    def work(keep_alive=grid):  # the flow graph does not own its grid
         graph.update_routes(z)
         graph.accumulate(1.0)
     return work, n * n, "cells"
