@@ -165,8 +165,8 @@ def run_job(prepared: PreparedJob, on_step=None, on_note=None) -> str:
     budget = sum(b.eroded for b in report.budgets.values()), sum(
         b.deposited for b in report.budgets.values())
     return (f"{job.command}: {report.steps} steps of {prepared.dt:g} y "
-            f"(t = {report.elapsed_years:+g} y); eroded {budget[0]:.4g} m³, "
-            f"deposited {budget[1]:.4g} m³; wrote {job.output}")
+            f"(t = {report.elapsed_years:+g} y); removed {budget[0]:.4g} m³ from the surface, "
+            f"added {budget[1]:.4g} m³; wrote {job.output}")
 
 
 def process_change(
