@@ -35,8 +35,6 @@ demo: $(STAMP)
 	$(BIN)/unerode-cli erode $(SAMPLE) $(DEMO)/valley_future.tif --process fluvial \
 		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 \
 		--change-map $(DEMO)/valley_future_change.tif --preview $(DEMO)/valley_future.png --overwrite
-	$(BIN)/unerode-cli preview $(DEMO)/valley_past_change.tif $(DEMO)/valley_past_change.png \
-		--cmap RdBu --title "unerosion: change over 20 ky (m)" --overwrite
 	$(BIN)/unerode-cli convert $(DEMO)/valley_past.tif $(DEMO)/valley_past.exr --overwrite
 	@echo "demo outputs in $(DEMO)/ (previews: $(DEMO)/*.png)"
 

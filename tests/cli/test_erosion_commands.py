@@ -57,6 +57,7 @@ def test_erode_then_unerode_writes_everything(tmp_path: Path, ramp: Path) -> Non
     before, after = read_terrain(ramp).elevation, read_terrain(eroded).elevation
     np.testing.assert_allclose(after - before, dh, atol=1e-3)
     assert [p.name for p in sorted(tmp_path.glob("e_0*.tif"))] == ["e_001.tif", "e_002.tif"]
+    assert (tmp_path / "dh.png").stat().st_size > 10_000  # the change map's own preview
     assert float(read_terrain(tmp_path / "e_001.tif").tags["UNERODE_TIME_Y"]) == 200.0
 
     back = tmp_path / "u.tif"

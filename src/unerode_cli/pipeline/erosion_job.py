@@ -12,7 +12,7 @@ import numpy as np
 
 from unerode_cli.errors import InputError
 from unerode_cli.pipeline.boundaries import boundaries_from_options
-from unerode_cli.pipeline.outputs import Outputs, save
+from unerode_cli.pipeline.outputs import Outputs, field_preview, save
 from unerode_cli.pipeline.parameter_maps import resolve
 from unerode_cli.pipeline.registry import REGISTRY, parse_process_list
 from unerode_cli.pipeline.runner import Process, RunReport, run
@@ -99,6 +99,11 @@ def snapshot_path(output: Path, index: int) -> Path:
     return output.with_name(f"{output.stem}_{index:03d}{output.suffix}")
 
 
+def change_preview_path(change_map: Path) -> Path:
+    """``dh.tif`` → ``dh.png``: the change map's preview, written when --preview is given."""
+    return change_map.with_suffix(".png")
+
+
 def plan(job: ErosionJob) -> PreparedJob:
     """Check the whole job before any work: options, outputs, inputs, parameters, boundaries."""
     names = parse_process_list(job.process, job.backward)
@@ -113,6 +118,8 @@ def plan(job: ErosionJob) -> PreparedJob:
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, job.overwrite, job.preview)
     outputs.check(job.source)
     extra = [job.change_map] if job.change_map else []
+    if job.change_map and job.preview:
+        extra.append(change_preview_path(job.change_map))
     extra += [snapshot_path(job.output, k) for k in range(1, steps // stride + 1)] if stride else []
     for path in extra:
         check_output(path, job.overwrite, (job.source,))
@@ -162,6 +169,9 @@ def run_job(prepared: PreparedJob, on_step=None, on_note=None) -> str:
         layer = terrain.with_elevation(change)
         save(layer, Outputs(job.change_map, prepared.outputs.options, job.overwrite),
              job.command + " change", _provenance(prepared), stats, elevation_preview=False)
+        if job.preview is not None:
+            field_preview(change, terrain, change_preview_path(job.change_map),
+                          "Δh due to the processes (m)", title=job.change_map.name, diverging=True)
     budget = sum(b.eroded for b in report.budgets.values()), sum(
         b.deposited for b in report.budgets.values())
     return (f"{job.command}: {report.steps} steps of {prepared.dt:g} y "

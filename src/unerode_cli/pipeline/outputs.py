@@ -66,12 +66,13 @@ def preview(terrain: Terrain, path: Path, title: str = "", **style: Any) -> None
 
 
 def field_preview(
-    values: Any, terrain: Terrain, path: Path, label: str, log: bool = False, title: str = ""
+    values: Any, terrain: Terrain, path: Path, label: str, title: str = "", **style: Any
 ) -> None:
-    """PNG of a side field (discharge, Δh, ...) over the terrain's hillshade, written atomically."""
+    """PNG of a side field (discharge, Δh, ...) over the terrain's hillshade, written atomically
+    (``style``: ``log`` or ``diverging``, see viz.preview.save_field_preview)."""
     with atomic_path(path) as tmp:
         save_field_preview(values, terrain.elevation, terrain.dx, terrain.dy, tmp, label,
-                           title=title, log=log)
+                           title=title, **style)
 
 
 def parse_creation_options(entries: list[str] | None) -> dict[str, str]:

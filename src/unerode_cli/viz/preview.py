@@ -85,12 +85,14 @@ def save_field_preview(
     title: str = "",
     log: bool = False,
     cmap: str = "Blues",
+    diverging: bool = False,
     dpi: int = 110,
 ) -> None:
     """Save a PNG of ``field`` (e.g. discharge, m³/y) over a grey hillshade of ``elevation``.
 
     With ``log`` the colours follow log10 of the positive values (drainage networks span many
-    orders of magnitude); the colour bar is labelled ``label`` (with its unit).
+    orders of magnitude); with ``diverging`` the colours are red-white-blue, centred on 0 with
+    a symmetric range (for signed changes). The colour bar is labelled ``label`` (with unit).
     """
     valid = np.isfinite(elevation) & np.isfinite(field)
     if not valid.any():
@@ -105,7 +107,11 @@ def save_field_preview(
     extent = (0, nx * dx / 1000.0, 0, ny * dy / 1000.0)
     fig, ax = plt.subplots(figsize=(7.0, max(2.5, min(12.0, 7.0 * ny * dy / (nx * dx) * 0.85 + 0.6))))
     ax.imshow(np.where(np.isfinite(elevation), shade, np.nan), cmap="gray", extent=extent)
-    image = ax.imshow(values, cmap=cmap, extent=extent, alpha=0.85, interpolation="nearest")
+    style: dict = {"cmap": cmap}
+    if diverging:
+        bound = float(np.nanpercentile(np.abs(values), 99.5)) or 1.0
+        style = {"cmap": "RdBu", "vmin": -bound, "vmax": bound}
+    image = ax.imshow(values, extent=extent, alpha=0.85, interpolation="nearest", **style)
     ax.set_xlabel("x (km)")
     ax.set_ylabel("y (km)")
     if title:
