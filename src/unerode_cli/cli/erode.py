@@ -18,6 +18,7 @@ from unerode_cli.cli.options import (
     Dtype,
     DtypeOpt,
     InputDem,
+    Method,
     Outlets,
     OutputDem,
     Overwrite,
@@ -33,11 +34,6 @@ from unerode_cli.processes.fluvial import PARAMETERS as FLUVIAL_PARAMETERS
 class Scheme(str, Enum):
     limiter = "limiter"
     upwind = "upwind"
-
-
-class Method(str, Enum):
-    mfd = "mfd"
-    d8 = "d8"
 
 
 ALL_PARAMETERS = FLUVIAL_PARAMETERS

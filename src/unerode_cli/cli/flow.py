@@ -15,6 +15,7 @@ from unerode_cli.cli.options import (
     CreationOptions,
     Dirichlet,
     InputDem,
+    Method,
     Outlets,
     OutputDem,
     Overwrite,
@@ -29,11 +30,6 @@ class What(str, Enum):
     discharge = "discharge"
     area = "area"
     receivers = "receivers"
-
-
-class Method(str, Enum):
-    mfd = "mfd"
-    d8 = "d8"
 
 
 def flow(

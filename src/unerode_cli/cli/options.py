@@ -14,6 +14,13 @@ class Dtype(str, Enum):
     float64 = "float64"
 
 
+class Method(str, Enum):
+    """Flow routing: multiple flow directions ∝ slope (000 Eq. 6) or steepest descent (D8)."""
+
+    mfd = "mfd"
+    d8 = "d8"
+
+
 InputDem = Annotated[Path, typer.Argument(help="Input heightfield (GeoTIFF, any GDAL raster, or .exr), metres.")]
 OutputDem = Annotated[Path, typer.Argument(help="Output heightfield; the format follows the extension (.tif, .exr, ...).")]
 Band = Annotated[int | None, typer.Option("--band", help="Band to read from a multi-band raster (1-based).")]
