@@ -15,13 +15,14 @@ not load numba.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from unerode_cli.grid import Grid
-from unerode_cli.processes.parameters import ParamSpec
+from unerode_cli.processes.budget import MassBudget
+from unerode_cli.processes.parameters import ParamSpec, check_fields
 
 if TYPE_CHECKING:
     from unerode_cli.hydro.routing import Routing
@@ -94,36 +95,8 @@ class FluvialParams:
 
     def validate(self, grid: Grid) -> None:
         """Raise ValueError (one sentence) for a value out of range inside the domain or a
-        raster of another shape than the grid (raster values on nodata cells are not read)."""
-        for field in fields(self):
-            value = getattr(self, field.name)
-            if np.ndim(value):
-                if np.shape(value) != grid.shape:
-                    raise ValueError(
-                        f"parameter {field.name} has shape {np.shape(value)}, the grid has {grid.shape}"
-                    )
-                value = np.asarray(value)[grid.valid]
-            _SPECS[field.name].check(value)
-
-
-@dataclass(frozen=True)
-class MassBudget:
-    """Volumes moved by one step (m³), uplift excluded.
-
-    With e = Δh − U·dt the elevation change of a free (non-outlet) cell due to the process
-    alone: ``eroded`` = Σ max(0, −e)·A, ``deposited`` = Σ max(0, e)·A, and ``outflux`` =
-    dt·Σ Q̃s over the outlets, the volume that leaves the domain (negative backward in time,
-    when un-deposition brings material back). Conservation: eroded − deposited − outflux = 0.
-    """
-
-    eroded: float
-    deposited: float
-    outflux: float
-
-    @property
-    def residual(self) -> float:
-        """eroded − deposited − outflux (m³); zero up to rounding."""
-        return self.eroded - self.deposited - self.outflux
+        raster of another shape than the grid."""
+        check_fields(self, PARAMETERS, grid)
 
 
 @dataclass(frozen=True)

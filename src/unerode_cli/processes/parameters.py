@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from unerode_cli.grid import Grid
 
 
 @dataclass(frozen=True)
@@ -46,3 +51,19 @@ class ParamSpec:
             raise ValueError(
                 f"parameter {self.name} must be ≤ {self.maximum} {self.unit}, got {np.max(arr):g}"
             )
+
+
+def check_fields(params: Any, specs: Sequence[ParamSpec], grid: Grid) -> None:
+    """Check every field of the parameter dataclass ``params`` against its spec: rasters must
+    have the grid's shape, and values inside the domain must be in range (raster values on
+    nodata cells are not read). Raises ValueError with one sentence."""
+    by_name = {spec.name: spec for spec in specs}
+    for field in fields(params):
+        value = getattr(params, field.name)
+        if np.ndim(value):
+            if np.shape(value) != grid.shape:
+                raise ValueError(
+                    f"parameter {field.name} has shape {np.shape(value)}, the grid has {grid.shape}"
+                )
+            value = np.asarray(value)[grid.valid]
+        by_name[field.name].check(value)

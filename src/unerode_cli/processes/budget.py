@@ -1,0 +1,26 @@
+"""The mass budget every process step returns: volumes removed, added and carried out (m³)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class MassBudget:
+    """Volumes moved by one step of a process (m³), uplift excluded.
+
+    ``eroded`` is the volume taken from the surface (Σ max(0, −e)·A over free cells, with e the
+    elevation change due to the process alone), ``deposited`` the volume added to it
+    (Σ max(0, e)·A), and ``outflux`` the volume that leaves the domain through outlets or edges
+    (negative when a backward step brings material in). A mass-conserving process has
+    eroded − deposited − outflux = 0.
+    """
+
+    eroded: float
+    deposited: float
+    outflux: float
+
+    @property
+    def residual(self) -> float:
+        """eroded − deposited − outflux (m³); zero up to rounding for a conserving process."""
+        return self.eroded - self.deposited - self.outflux
