@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class MassBudget:
@@ -24,3 +26,17 @@ class MassBudget:
     def residual(self) -> float:
         """eroded − deposited − outflux (m³); zero up to rounding for a conserving process."""
         return self.eroded - self.deposited - self.outflux
+
+
+@dataclass(frozen=True)
+class SurfaceChange:
+    """What one step of a process does to the surface.
+
+    Attributes:
+        dh: float64[ny, nx] elevation change (m), uplift included where the process applies it;
+            0 on fixed cells and nodata.
+        budget: the volumes the step moved.
+    """
+
+    dh: np.ndarray
+    budget: MassBudget

@@ -22,7 +22,7 @@ import numpy as np
 
 from unerode_cli.grid import Grid
 from unerode_cli.processes.budget import MassBudget
-from unerode_cli.processes.parameters import ParamSpec, check_fields
+from unerode_cli.processes.parameters import UPLIFT, ParamSpec, check_fields
 
 if TYPE_CHECKING:
     from unerode_cli.hydro.routing import Routing
@@ -31,14 +31,7 @@ Scheme = Literal["limiter", "upwind"]
 SCHEMES: tuple[str, ...] = ("limiter", "upwind")
 
 PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec(
-        "uplift",
-        "m/y",
-        0.0,
-        "uplift rate U (000 Eq. 3); negative for subsidence",
-        raster=True,
-        symbol="U",
-    ),
+    UPLIFT,
     ParamSpec(
         "k",
         "m^(1-3m)·y^(m-1)",

@@ -67,3 +67,14 @@ def check_fields(params: Any, specs: Sequence[ParamSpec], grid: Grid) -> None:
                 )
             value = np.asarray(value)[grid.valid]
         by_name[field.name].check(value)
+
+
+#: The uplift rate, shared by every process that takes it: a combined run applies it once.
+UPLIFT = ParamSpec(
+    "uplift",
+    "m/y",
+    0.0,
+    "uplift rate U (000 Eq. 3); negative for subsidence",
+    raster=True,
+    symbol="U",
+)
