@@ -29,11 +29,11 @@ demo: $(STAMP)
 	$(BIN)/unerode-cli info $(SAMPLE)
 	$(BIN)/unerode-cli flow $(SAMPLE) $(DEMO)/discharge.tif --sea-level 0 \
 		--preview $(DEMO)/discharge.png --overwrite
-	$(BIN)/unerode-cli unerode $(SAMPLE) $(DEMO)/valley_past.tif --process fluvial \
-		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 \
+	$(BIN)/unerode-cli unerode $(SAMPLE) $(DEMO)/valley_past.tif --process thermal,fluvial \
+		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 --k-th 0.002 \
 		--change-map $(DEMO)/valley_past_change.tif --preview $(DEMO)/valley_past.png --overwrite
-	$(BIN)/unerode-cli erode $(SAMPLE) $(DEMO)/valley_future.tif --process fluvial \
-		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 \
+	$(BIN)/unerode-cli erode $(SAMPLE) $(DEMO)/valley_future.tif --process fluvial,thermal \
+		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 --k-th 0.002 \
 		--change-map $(DEMO)/valley_future_change.tif --preview $(DEMO)/valley_future.png --overwrite
 	$(BIN)/unerode-cli convert $(DEMO)/valley_past.tif $(DEMO)/valley_past.exr --overwrite
 	@echo "demo outputs in $(DEMO)/ (previews: $(DEMO)/*.png)"

@@ -28,7 +28,7 @@ from unerode_cli.cli.options import (
     Verbose,
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
-from unerode_cli.processes.fluvial import PARAMETERS as FLUVIAL_PARAMETERS
+from unerode_cli.processes import debris, fluvial, hillslope, thermal
 
 
 class Scheme(str, Enum):
@@ -36,24 +36,34 @@ class Scheme(str, Enum):
     upwind = "upwind"
 
 
-ALL_PARAMETERS = FLUVIAL_PARAMETERS
+PARAMETER_PANELS = {
+    "Fluvial parameters (000 §3)": fluvial.PARAMETERS,
+    "Thermal parameters (000 §4; thermal and thermal-ca)": thermal.PARAMETERS,
+    "Hillslope parameters (001 §6.4)": hillslope.PARAMETERS,
+    "Debris-flow parameters (001 Eq. 8)": debris.PARAMETERS,
+}
+PROCESS_HELP = ("Process(es), comma-separated, applied in this order within each step (operator "
+                "splitting): fluvial, thermal, thermal-ca (forward only), hillslope (forward only), "
+                "debris (forward only).")
 
 
 def _command(backward: bool):
     verb = "unerode" if backward else "erode"
 
-    @with_parameter_options(ALL_PARAMETERS)
+    @with_parameter_options(PARAMETER_PANELS)
     def command(
         source: InputDem,
         output: OutputDem,
-        process: Annotated[str, typer.Option(help="Process(es), comma-separated, applied in this order in each step.")] = "fluvial",
+        process: Annotated[str, typer.Option(help=PROCESS_HELP)] = "fluvial",
+        params: Annotated[Path | None, typer.Option("--params", help="YAML file of parameter values (name or symbol → number or raster path, optionally grouped under process names); command-line values win.")] = None,
         dt: Annotated[float, typer.Option("--dt", help="Time step (years, > 0; unerode runs it backward).")] = 1000.0,
         duration: Annotated[float | None, typer.Option(help="Simulated time (years); or give --steps.")] = None,
         steps: Annotated[int | None, typer.Option(help="Number of time steps; or give --duration.")] = None,
         no_substep: Annotated[bool, typer.Option("--no-substep", help="Refuse an unstable --dt instead of sub-stepping it.")] = False,
         snapshot_every: Annotated[float | None, typer.Option(help="Write a numbered snapshot OUTPUT_k every this many simulated years.")] = None,
         change_map: Annotated[Path | None, typer.Option(help="Write the signed change (m) due to the processes (uplift excluded): < 0 erosion, > 0 deposition.")] = None,
-        scheme: Annotated[Scheme, typer.Option(help="Slope of backward fluvial steps: limiter (000 Eq. 12) or upwind (Eq. 10).")] = Scheme.limiter,
+        scheme: Annotated[Scheme, typer.Option(help="Slope of backward fluvial and thermal steps: limiter (000 Eq. 12) or upwind (Eq. 10).")] = Scheme.limiter,
+        thermal_constraints: Annotated[str, typer.Option(help="Un-deposition constraints of thermal unerosion (000 §4.2): any of slope (Eq. 16), convexity (Eq. 17), rate (max un-deposition), or none.")] = "slope,convexity,rate",
         method: Annotated[Method, typer.Option(help="Flow routing: mfd (multiple flow directions) or d8.")] = Method.mfd,
         outlets: Outlets = "all",
         sea_level: SeaLevel = None,
@@ -81,6 +91,7 @@ def _command(backward: bool):
                 method=method.value, outlets=outlets, sea_level=sea_level, dirichlet=dirichlet,
                 band=band, channel=channel, dtype=dtype.value, cog=cog, co=co,
                 overwrite=overwrite, preview=preview, parameter_values=parameter_values or {},
+                params_file=params, constraints=thermal_constraints,
             )
             prepared = plan(job)
             with progress_bar(prepared.steps, verb, verbose - quiet) as advance:
@@ -92,7 +103,7 @@ def _command(backward: bool):
     command.__doc__ = (
         "Unerode a DEM: run the processes backward in time (000 §3.2, slope limiter)."
         if backward else
-        "Erode a DEM: run the processes forward in time (fluvial erosion with deposition)."
+        "Erode a DEM: run the processes forward in time (fluvial, thermal, hillslope, debris flow)."
     )
     return command
 

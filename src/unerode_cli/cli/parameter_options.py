@@ -5,7 +5,7 @@ from __future__ import annotations
 import functools
 import inspect
 import typing
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Annotated, Any
 
 import typer
@@ -27,12 +27,23 @@ def option_help(spec: ParamSpec) -> str:
     return f"{spec.help} [{spec.unit}; default {spec.default:g}{extra}{raster}]"
 
 
-def with_parameter_options(specs: Sequence[ParamSpec]) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """Give a typer command one ``--NAME`` option per spec (``_`` → ``-``).
+def with_parameter_options(
+    groups: Mapping[str, Sequence[ParamSpec]],
+) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Give a typer command one ``--NAME`` option per spec (``_`` → ``-``), shown in one help
+    panel per group (e.g. per process); a spec in several groups gets one option, in the
+    panel of its first group.
 
     The decorated function receives the given values as ``parameter_values`` (a dict of name →
     text, ``None`` where the option was not given) instead of one argument per option.
     """
+    panels: dict[str, str] = {}
+    unique: dict[str, ParamSpec] = {}
+    for panel, group in groups.items():
+        for spec in group:
+            panels.setdefault(spec.name, panel)
+            unique.setdefault(spec.name, spec)
+    specs = list(unique.values())
 
     def decorate(func: Callable[..., Any]) -> Callable[..., Any]:
         signature = inspect.signature(func)
@@ -44,8 +55,9 @@ def with_parameter_options(specs: Sequence[ParamSpec]) -> Callable[[Callable[...
             names = [f"--{spec.name.replace('_', '-')}"]
             if spec.symbol and spec.symbol != spec.name:
                 names.append(f"--{spec.symbol.replace('_', '-')}")
-            annotation = Annotated[str | None, typer.Option(*names, help=option_help(spec),
-                                                            show_default=False)]
+            annotation = Annotated[str | None, typer.Option(
+                *names, help=option_help(spec), show_default=False,
+                rich_help_panel=panels[spec.name])]
             added.append(inspect.Parameter(spec.name, inspect.Parameter.KEYWORD_ONLY,
                                            default=None, annotation=annotation))
 

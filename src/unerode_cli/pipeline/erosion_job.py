@@ -13,9 +13,12 @@ import numpy as np
 from unerode_cli.errors import InputError
 from unerode_cli.pipeline.boundaries import boundaries_from_options
 from unerode_cli.pipeline.outputs import Outputs, field_preview, save
+from unerode_cli.pipeline.parameter_file import read_parameter_file
 from unerode_cli.pipeline.parameter_maps import resolve
 from unerode_cli.pipeline.registry import REGISTRY, parse_process_list
 from unerode_cli.pipeline.runner import Process, RunReport, run
+from unerode_cli.processes import thermal
+from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.raster.io import read_terrain
 from unerode_cli.raster.paths import check_output
 from unerode_cli.raster.terrain import Terrain
@@ -50,6 +53,8 @@ class ErosionJob:
     overwrite: bool = False
     preview: Path | None = None
     parameter_values: dict[str, str | None] = field(default_factory=dict)
+    params_file: Path | None = None
+    constraints: str = ",".join(thermal.CONSTRAINTS)
 
     @property
     def command(self) -> str:
@@ -127,18 +132,48 @@ def plan(job: ErosionJob) -> PreparedJob:
     if (~terrain.nodata_mask).sum() == 0:
         raise InputError(f"{job.source} has no valid cell.")
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
-    processes, parameters, uplift = [], {}, 0.0
+    given = _given_values(job, names)
+    options = {"scheme": job.scheme, "method": job.method,
+               "constraints": _constraints(job.constraints)}
+    processes, parameters, uplift = [], {}, None
     for name in names:
         registered = REGISTRY[name]
         values = {}
         for spec in registered.parameters:
-            given = job.parameter_values.get(spec.name)
-            values[spec.name] = resolve(spec, spec.default if given is None else given, terrain)
-            parameters[spec.name] = spec.default if given is None else given
-        uplift = values.get("uplift", uplift)
-        processes.append(registered.build(terrain, bounds, values,
-                                          {"scheme": job.scheme, "method": job.method}))
+            text = given.get(spec.name)
+            value = resolve(spec, spec.default if text is None else text, terrain)
+            parameters[spec.name] = spec.default if text is None else text
+            if spec.name == UPLIFT.name:  # applied once, by the first process that takes it
+                if uplift is None:
+                    uplift = value
+                else:
+                    value = 0.0
+            values[spec.name] = value
+        processes.append(registered.build(terrain, bounds, values, options))
+    uplift = 0.0 if uplift is None else uplift
     return PreparedJob(job, terrain, processes, parameters, job.dt, steps, stride, outputs, uplift)
+
+
+def _given_values(job: ErosionJob, names: list[str]) -> dict[str, str | None]:
+    """Parameter values from --params FILE, overridden by those of the command line."""
+    values: dict[str, str | None] = {}
+    if job.params_file is not None:
+        declared = {name: REGISTRY[name].parameters for name in names}
+        values.update(read_parameter_file(job.params_file, declared))
+    values.update({k: v for k, v in job.parameter_values.items() if v is not None})
+    return values
+
+
+def _constraints(text: str) -> tuple[str, ...]:
+    """``--thermal-constraints`` → names (``none`` for no constraint)."""
+    names = tuple(n.strip().lower() for n in text.split(",") if n.strip())
+    if names == ("none",):
+        return ()
+    unknown = [n for n in names if n not in thermal.CONSTRAINTS]
+    if unknown:
+        raise InputError(f"unknown thermal constraint '{unknown[0]}'; choose among "
+                         f"{', '.join(thermal.CONSTRAINTS)}, or none.")
+    return names
 
 
 def run_job(prepared: PreparedJob, on_step=None, on_note=None) -> str:
@@ -192,7 +227,8 @@ def _provenance(prepared: PreparedJob) -> dict[str, Any]:
             "steps": prepared.steps, "direction": "backward" if job.backward else "forward",
             "scheme": job.scheme, "method": job.method, "outlets": job.outlets,
             "sea_level": job.sea_level, "dirichlet": job.dirichlet,
-            "allow_substeps": job.allow_substeps, **prepared.parameters}
+            "allow_substeps": job.allow_substeps, "params_file": job.params_file,
+            "thermal_constraints": job.constraints, **prepared.parameters}
 
 
 def _statistics(report: RunReport, change: np.ndarray, wall: float,

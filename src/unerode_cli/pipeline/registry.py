@@ -13,64 +13,192 @@ import numpy as np
 from unerode_cli.errors import InputError
 from unerode_cli.pipeline.boundaries import Boundaries
 from unerode_cli.pipeline.runner import Change, Process
-from unerode_cli.processes import fluvial
+from unerode_cli.processes import debris, fluvial, hillslope, thermal, thermal_ca
+from unerode_cli.processes.budget import MassBudget
 from unerode_cli.processes.parameters import ParamSpec
 from unerode_cli.raster.terrain import Terrain
 
 
 @dataclass
-class FluvialProcess:
-    """Fluvial erosion/deposition (000 §3) with routing recomputed on each new surface."""
+class Surface:
+    """The terrain and boundaries a process runs on, with the flow routing of the last
+    elevation asked for (recomputed when the elevation changes)."""
 
     terrain: Terrain
     boundaries: Boundaries
-    params: fluvial.FluvialParams
-    scheme: str = "limiter"
     method: str = "mfd"
-    name: str = "fluvial"
     _cached: tuple[np.ndarray, Any] | None = field(default=None, repr=False)
 
-    def _routing(self, h: np.ndarray) -> Any:
+    def outlets(self, h: np.ndarray) -> np.ndarray:
+        """bool[ny, nx] base-level cells of ``h`` (edges, sea, Dirichlet nodes)."""
+        return self.boundaries.outlets(h, self.terrain)
+
+    def routing(self, h: np.ndarray) -> Any:
+        """The routing of ``h`` towards its outlets (``unerode_cli.hydro.Routing``)."""
         from unerode_cli.hydro import route
 
         if self._cached is not None and np.array_equal(self._cached[0], h):
             return self._cached[1]
-        outlets = self.boundaries.outlets(h, self.terrain)
-        routing = route(h, self.terrain.grid, outlets, self.method)
+        routing = route(h, self.terrain.grid, self.outlets(h), self.method)
         self._cached = (h.copy(), routing)
         return routing
 
-    def stable_dt(self, elevation: np.ndarray) -> float:
-        return fluvial.max_stable_dt(elevation, self.terrain.grid, self.params,
-                                     self._routing(elevation))
+
+def _change(dh: np.ndarray, budget: MassBudget) -> Change:
+    return Change(dh, budget.eroded, budget.deposited, budget.outflux)
+
+
+@dataclass
+class FluvialProcess:
+    """Fluvial erosion/deposition (000 §3)."""
+
+    surface: Surface
+    params: fluvial.FluvialParams
+    scheme: str = "limiter"
+    name: str = "fluvial"
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        grid = self.surface.terrain.grid
+        return fluvial.max_stable_dt(elevation, grid, self.params, self.surface.routing(elevation))
 
     def advance(self, elevation: np.ndarray, dt: float) -> Change:
-        routing = self._routing(elevation)
-        change = fluvial.step(elevation, self.terrain.grid, routing.outlets, self.params, dt,
-                              routing=routing, scheme=self.scheme)
-        b = change.budget
-        return Change(change.dh, b.eroded, b.deposited, b.outflux)
+        routing = self.surface.routing(elevation)
+        change = fluvial.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
+                              dt, routing=routing, scheme=self.scheme)
+        return _change(change.dh, change.budget)
+
+
+@dataclass
+class ThermalProcess:
+    """Thermal erosion with rock deposition and its reversal (000 §4)."""
+
+    surface: Surface
+    params: thermal.ThermalParams
+    scheme: str = "limiter"
+    constraints: tuple[str, ...] = thermal.CONSTRAINTS
+    name: str = "thermal"
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        return thermal.max_stable_dt(elevation, self.surface.terrain.grid, self.params,
+                                     self.surface.outlets(elevation), dt, self.scheme)
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        routing = self.surface.routing(elevation)
+        change = thermal.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
+                              dt, routing=routing, scheme=self.scheme,
+                              constraints=self.constraints)
+        return _change(change.dh, change.budget)
+
+
+@dataclass
+class ThermalAutomatonProcess:
+    """The thermal cellular automaton of Musgrave et al. 1989 (forward only)."""
+
+    surface: Surface
+    params: thermal_ca.ThermalCAParams
+    name: str = "thermal-ca"
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        return thermal_ca.max_stable_dt(self.surface.terrain.grid, self.params)
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        change = thermal_ca.step(elevation, self.surface.terrain.grid,
+                                 self.surface.outlets(elevation), self.params, dt)
+        return _change(change.dh, change.budget)
+
+
+@dataclass
+class HillslopeProcess:
+    """Linear hillslope diffusion, implicit ADI (001 §6.4; forward only)."""
+
+    surface: Surface
+    params: hillslope.HillslopeParams
+    name: str = "hillslope"
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        return float("inf")
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        change = hillslope.step(elevation, self.surface.terrain.grid,
+                                self.surface.outlets(elevation), self.params, dt)
+        return _change(change.dh, change.budget)
+
+
+@dataclass
+class DebrisProcess:
+    """Debris flow along steepest descent, implicit (001 Eq. 8; forward only)."""
+
+    surface: Surface
+    params: debris.DebrisParams
+    name: str = "debris"
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        return float("inf")
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        routing = self.surface.routing(elevation)
+        change = debris.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
+                             dt, routing=routing)
+        return _change(change.dh, change.budget)
 
 
 @dataclass(frozen=True)
 class Registered:
-    """A process the command line offers: its parameters, how to build it, and whether it can
-    run backward in time (and, if not, why)."""
+    """A process the command line offers: its parameters, how to build it from the surface,
+    the parameter values and the run options, and whether it can run backward in time (and,
+    if not, why)."""
 
     parameters: tuple[ParamSpec, ...]
-    build: Callable[..., Process]
+    build: Callable[[Terrain, Boundaries, dict[str, Any], dict[str, Any]], Process]
+    summary: str
     backward_refusal: str | None = None
 
 
-def _build_fluvial(terrain: Terrain, boundaries: Boundaries, values: dict[str, Any],
-                   options: dict[str, Any]) -> Process:
-    params = fluvial.FluvialParams(**{s.name: values[s.name] for s in fluvial.PARAMETERS})
-    return FluvialProcess(terrain, boundaries, params, options.get("scheme", "limiter"),
-                          options.get("method", "mfd"))
+def _values(specs: tuple[ParamSpec, ...], values: dict[str, Any]) -> dict[str, Any]:
+    return {spec.name: values[spec.name] for spec in specs}
+
+
+def _surface(terrain: Terrain, boundaries: Boundaries, method: str = "mfd") -> Surface:
+    return Surface(terrain, boundaries, method)
 
 
 REGISTRY: dict[str, Registered] = {
-    "fluvial": Registered(fluvial.PARAMETERS, _build_fluvial),
+    "fluvial": Registered(
+        fluvial.PARAMETERS,
+        lambda t, b, v, o: FluvialProcess(
+            _surface(t, b, o.get("method", "mfd")),
+            fluvial.FluvialParams(**_values(fluvial.PARAMETERS, v)), o.get("scheme", "limiter")),
+        "fluvial erosion with sediment deposition (000 §3)",
+    ),
+    "thermal": Registered(
+        thermal.PARAMETERS,
+        lambda t, b, v, o: ThermalProcess(
+            _surface(t, b, o.get("method", "mfd")),
+            thermal.ThermalParams(**_values(thermal.PARAMETERS, v)), o.get("scheme", "limiter"),
+            tuple(o.get("constraints", thermal.CONSTRAINTS))),
+        "thermal erosion with rock deposition following the flow (000 §4)",
+    ),
+    "thermal-ca": Registered(
+        thermal_ca.PARAMETERS,
+        lambda t, b, v, o: ThermalAutomatonProcess(
+            _surface(t, b), thermal_ca.ThermalCAParams(**_values(thermal_ca.PARAMETERS, v))),
+        "the classic thermal cellular automaton (Musgrave et al. 1989)",
+        thermal_ca.BACKWARD_REFUSAL,
+    ),
+    "hillslope": Registered(
+        hillslope.PARAMETERS,
+        lambda t, b, v, o: HillslopeProcess(
+            _surface(t, b), hillslope.HillslopeParams(**_values(hillslope.PARAMETERS, v))),
+        "linear hillslope diffusion, implicit ADI (001 §6.4)",
+        hillslope.BACKWARD_REFUSAL,
+    ),
+    "debris": Registered(
+        debris.PARAMETERS,
+        lambda t, b, v, o: DebrisProcess(
+            _surface(t, b, "d8"), debris.DebrisParams(**_values(debris.PARAMETERS, v))),
+        "debris flow above a critical slope, stronger with drainage area (001 Eq. 8)",
+        debris.BACKWARD_REFUSAL,
+    ),
 }
 
 
@@ -85,4 +213,6 @@ def parse_process_list(text: str, backward: bool) -> list[str]:
         refusal = REGISTRY[name].backward_refusal
         if backward and refusal:
             raise InputError(refusal)
+    if len(set(names)) != len(names):
+        raise InputError(f"--process names a process twice: {text}.")
     return names

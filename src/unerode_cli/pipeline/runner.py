@@ -51,8 +51,9 @@ class Process(Protocol):
 
     name: str
 
-    def stable_dt(self, elevation: np.ndarray) -> float:
-        """Largest stable |dt| (y) on this elevation (inf when unconstrained)."""
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        """Largest stable |dt| (y) on this elevation for a step of the sign of ``dt`` (inf
+        when unconstrained)."""
 
     def advance(self, elevation: np.ndarray, dt: float) -> Change:
         """The change of one step of ``dt`` years (negative: backward in time)."""
@@ -101,7 +102,7 @@ def run(
     noted: set[str] = set()
     for i in range(1, steps + 1):
         for process in processes:
-            n_sub = substeps_needed(dt, process.stable_dt(h))
+            n_sub = substeps_needed(dt, process.stable_dt(h, dt))
             if n_sub > 1 and not allow_substeps:
                 raise InputError(
                     f"the {process.name} time step of {abs(dt):g} years is unstable here "
