@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from unerode_cli import __version__
+from unerode_cli.cli.climate_run import climate_run
 from unerode_cli.cli.convert import convert
 from unerode_cli.cli.erode import erode, unerode
 from unerode_cli.cli.flow import flow
@@ -26,6 +27,7 @@ app = typer.Typer(
 
 for command in (info, convert, preview, synth, flow, erode, unerode):
     app.command()(command)
+app.command("climate-run")(climate_run)
 
 
 def versions() -> str:

@@ -15,7 +15,7 @@ from unerode_cli.pipeline.boundaries import boundaries_from_options
 from unerode_cli.pipeline.outputs import Outputs, field_preview, save
 from unerode_cli.pipeline.parameter_file import read_parameter_file
 from unerode_cli.pipeline.parameter_maps import resolve
-from unerode_cli.pipeline.registry import REGISTRY, parse_process_list
+from unerode_cli.pipeline.registry import REGISTRY, build_processes, parse_process_list
 from unerode_cli.pipeline.runner import Process, RunReport, run
 from unerode_cli.processes import thermal
 from unerode_cli.processes.parameters import UPLIFT
@@ -132,39 +132,33 @@ def plan(job: ErosionJob) -> PreparedJob:
     if (~terrain.nodata_mask).sum() == 0:
         raise InputError(f"{job.source} has no valid cell.")
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
-    given = _given_values(job, names)
+    given = given_values(job.params_file, job.parameter_values, names)
     options = {"scheme": job.scheme, "method": job.method,
-               "constraints": _constraints(job.constraints)}
-    processes, parameters, uplift = [], {}, None
+               "constraints": thermal_constraints(job.constraints)}
+    values: dict[str, Any] = {}
+    parameters: dict[str, Any] = {}
     for name in names:
-        registered = REGISTRY[name]
-        values = {}
-        for spec in registered.parameters:
+        for spec in REGISTRY[name].parameters:
             text = given.get(spec.name)
-            value = resolve(spec, spec.default if text is None else text, terrain)
             parameters[spec.name] = spec.default if text is None else text
-            if spec.name == UPLIFT.name:  # applied once, by the first process that takes it
-                if uplift is None:
-                    uplift = value
-                else:
-                    value = 0.0
-            values[spec.name] = value
-        processes.append(registered.build(terrain, bounds, values, options))
-    uplift = 0.0 if uplift is None else uplift
+            values[spec.name] = resolve(spec, parameters[spec.name], terrain)
+    processes = build_processes(names, terrain, bounds, values, options)
+    uplift = values.get(UPLIFT.name, 0.0)
     return PreparedJob(job, terrain, processes, parameters, job.dt, steps, stride, outputs, uplift)
 
 
-def _given_values(job: ErosionJob, names: list[str]) -> dict[str, str | None]:
+def given_values(params_file: Path | None, parameter_values: dict[str, str | None],
+                 names: list[str]) -> dict[str, str | None]:
     """Parameter values from --params FILE, overridden by those of the command line."""
     values: dict[str, str | None] = {}
-    if job.params_file is not None:
+    if params_file is not None:
         declared = {name: REGISTRY[name].parameters for name in names}
-        values.update(read_parameter_file(job.params_file, declared))
-    values.update({k: v for k, v in job.parameter_values.items() if v is not None})
+        values.update(read_parameter_file(params_file, declared))
+    values.update({k: v for k, v in parameter_values.items() if v is not None})
     return values
 
 
-def _constraints(text: str) -> tuple[str, ...]:
+def thermal_constraints(text: str) -> tuple[str, ...]:
     """``--thermal-constraints`` → names (``none`` for no constraint)."""
     names = tuple(n.strip().lower() for n in text.split(",") if n.strip())
     if names == ("none",):

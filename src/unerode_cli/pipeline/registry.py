@@ -15,7 +15,7 @@ from unerode_cli.pipeline.boundaries import Boundaries
 from unerode_cli.pipeline.runner import Change, Process
 from unerode_cli.processes import debris, fluvial, hillslope, thermal, thermal_ca
 from unerode_cli.processes.budget import MassBudget
-from unerode_cli.processes.parameters import ParamSpec
+from unerode_cli.processes.parameters import UPLIFT, ParamSpec
 from unerode_cli.raster.terrain import Terrain
 
 
@@ -200,6 +200,23 @@ REGISTRY: dict[str, Registered] = {
         debris.BACKWARD_REFUSAL,
     ),
 }
+
+
+def build_processes(names: list[str], terrain: Terrain, boundaries: Boundaries,
+                    values: dict[str, Any], options: dict[str, Any]) -> list[Process]:
+    """The processes ``names`` with their parameters taken from ``values`` (name → number or
+    raster). The uplift is given only to the first process that takes it, so that a combined
+    run applies it once per step."""
+    built, uplift_taken = [], False
+    for name in names:
+        registered = REGISTRY[name]
+        own = _values(registered.parameters, values)
+        if UPLIFT.name in own:
+            if uplift_taken:
+                own[UPLIFT.name] = 0.0
+            uplift_taken = True
+        built.append(registered.build(terrain, boundaries, own, options))
+    return built
 
 
 def parse_process_list(text: str, backward: bool) -> list[str]:

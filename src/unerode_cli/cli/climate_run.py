@@ -1,0 +1,120 @@
+"""`unerode-cli climate-run`: (un)erode a DEM along a paleo-climate chronology (000 §5)."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from unerode_cli.cli.erode import PARAMETER_PANELS, Scheme
+from unerode_cli.cli.errors import reported_errors
+from unerode_cli.cli.options import (
+    Cog,
+    CreationOptions,
+    Dirichlet,
+    Dtype,
+    DtypeOpt,
+    InputDem,
+    Method,
+    Outlets,
+    OutputDem,
+    Overwrite,
+    Preview,
+    Quiet,
+    Verbose,
+)
+from unerode_cli.cli.parameter_options import with_parameter_options
+
+
+class Direction(str, Enum):
+    backward = "backward"
+    forward = "forward"
+
+
+class ChronologyKind(str, Enum):
+    d18o = "d18o"
+    sea_level = "sea-level"
+
+
+def _ages(text: str | None) -> tuple[float, ...]:
+    if not text:
+        return ()
+    try:
+        return tuple(float(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise typer.BadParameter(f"expected ages in ka separated by commas, got '{text}'") from None
+
+
+def _pair(text: str | None) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    try:
+        slope, intercept = (float(part) for part in text.split(","))
+    except ValueError:
+        raise typer.BadParameter(f"expected SLOPE,INTERCEPT, got '{text}'") from None
+    return slope, intercept
+
+
+@with_parameter_options(PARAMETER_PANELS)
+def climate_run(
+    source: InputDem,
+    output: OutputDem,
+    chronology: Annotated[Path, typer.Option("--chronology", help="Chronology table: an LR04-style δ18O stack (age ka, δ18O ‰), or a sea-level curve with --chronology-kind sea-level.")],
+    from_ka: Annotated[float, typer.Option("--from", help="Age of the input DEM (ka; 0 = present).")] = 0.0,
+    to_ka: Annotated[float, typer.Option("--to", help="Age to reach (ka): older than --from runs backward (unerosion), younger runs forward.")] = 20.0,
+    direction: Annotated[Direction | None, typer.Option(help="Checked against --from/--to (optional).")] = None,
+    chronology_kind: Annotated[ChronologyKind, typer.Option(help="What --chronology holds.")] = ChronologyKind.d18o,
+    sea_level: Annotated[Path | None, typer.Option("--sea-level", help="Sea-level table (age ka, m relative to present); default: sea level from δ18O by a linear mapping.")] = None,
+    d18o_to_sea: Annotated[str | None, typer.Option(help="SLOPE,INTERCEPT of sea (m) = INTERCEPT + SLOPE × δ18O (‰) (default: fitted on LR04 vs Spratt & Lisiecki 2016).")] = None,
+    dt: Annotated[float, typer.Option("--dt", help="Time step (years).")] = 1000.0,
+    process: Annotated[str, typer.Option(help="Processes applied in this order within each step.")] = "fluvial,thermal",
+    snapshots: Annotated[str | None, typer.Option(help="Ages (ka, comma-separated) at which to write OUTPUT_<age>ka snapshots.")] = None,
+    params: Annotated[Path | None, typer.Option("--params", help="YAML schedule: per-phase parameter values (glacial, end-of-glacial, interglacial) and the downstream K_d range.")] = None,
+    downstream_below: Annotated[float | None, typer.Option(help="Downstream region (K_d follows sea level, 000 §5.2): cells below this elevation (m) of the input.")] = None,
+    downstream_mask: Annotated[Path | None, typer.Option(help="Downstream region as a raster on the DEM's grid (non-zero cells).")] = None,
+    outlets: Outlets = "all",
+    dirichlet: Dirichlet = None,
+    sea_outlets: Annotated[bool, typer.Option("--sea-outlets/--no-sea-outlets", help="Cells at or below the current sea level are outlets.")] = True,
+    checkpoint_every: Annotated[int, typer.Option(help="Write a checkpoint every this many steps.")] = 10,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted run from its checkpoint (same inputs and options).")] = False,
+    max_steps: Annotated[int | None, typer.Option(help="Stop after this many steps of this invocation (checkpointed; continue with --resume).")] = None,
+    no_substep: Annotated[bool, typer.Option("--no-substep", help="Refuse an unstable --dt instead of sub-stepping it.")] = False,
+    scheme: Annotated[Scheme, typer.Option(help="Slope of backward steps: limiter (000 Eq. 12) or upwind (Eq. 10).")] = Scheme.limiter,
+    method: Annotated[Method, typer.Option(help="Flow routing: mfd or d8.")] = Method.mfd,
+    thermal_constraints: Annotated[str, typer.Option(help="Un-deposition constraints of thermal unerosion: slope, convexity, rate, or none.")] = "slope,convexity,rate",
+    dtype: DtypeOpt = Dtype.float32,
+    cog: Cog = False,
+    co: CreationOptions = None,
+    overwrite: Overwrite = False,
+    preview: Preview = None,
+    verbose: Verbose = 0,
+    quiet: Quiet = 0,
+    parameter_values: dict[str, str | None] | None = None,
+) -> None:
+    """Run the processes along a chronology: per-step sea level, climate phase and parameters
+    (000 §5), with boundary nodes that follow sea level. Writes the DEM at --to, snapshots
+    (tagged with age, sea level and phase), OUTPUT_timeline.csv and OUTPUT_chronology.png."""
+    with reported_errors(verbose - quiet):
+        from unerode_cli.cli.common import say
+        from unerode_cli.cli.progress import progress_bar
+        from unerode_cli.pipeline.climate_job import ClimateJob, plan, run_climate
+
+        job = ClimateJob(
+            source=source, output=output, chronology=chronology, from_ka=from_ka, to_ka=to_ka,
+            chronology_kind=chronology_kind.value, sea_level_file=sea_level,
+            d18o_mapping=_pair(d18o_to_sea), direction=direction.value if direction else None,
+            dt=dt, process=process, snapshots_ka=_ages(snapshots), schedule_file=params,
+            downstream_below=downstream_below, downstream_mask=downstream_mask,
+            outlets=outlets, dirichlet=dirichlet, sea_outlets=sea_outlets,
+            checkpoint_every=checkpoint_every, resume=resume, max_steps=max_steps,
+            allow_substeps=not no_substep, scheme=scheme.value, method=method.value,
+            constraints=thermal_constraints, dtype=dtype.value, cog=cog, co=co,
+            overwrite=overwrite, preview=preview, parameter_values=parameter_values or {},
+        )
+        prepared = plan(job)
+        with progress_bar(prepared.steps, "climate-run", verbose - quiet) as advance:
+            summary = run_climate(prepared, on_step=advance,
+                                  on_note=lambda text: say(text, verbose - quiet))
+        say(summary, verbose - quiet)
