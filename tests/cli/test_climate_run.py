@@ -30,7 +30,8 @@ def sea_fall_table(path: Path, fall_m: float) -> Path:
     (10–40 ka only: a table that does not reach the present is not re-anchored to 0 m)."""
     ages = np.arange(10.0, 41.0, 1.0)
     sea = np.where(ages >= 20, 0.0, -fall_m * np.clip((20 - ages) / 4, 0, 1))
-    path.write_text("# age_ka sea_level_m\n" + "".join(f"{a:g} {s:g}\n" for a, s in zip(ages, sea)))
+    lines = [f"{a:g} {s:g}\n" for a, s in zip(ages, sea, strict=True)]
+    path.write_text("# age_ka sea_level_m\n" + "".join(lines))
     return path
 
 
