@@ -5,6 +5,8 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 DEMO   := demo_out
 SAMPLE := sample_dems/valley_utm32n_30m.tif
+# real chronologies (LR04 δ18O stack, Spratt & Lisiecki 2016 sea level), beside the checkout
+DATA   ?= ../shared/data
 
 .PHONY: venv install test test-all demo bench lint clean
 
@@ -36,6 +38,12 @@ demo: $(STAMP)
 		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 --k-th 0.002 \
 		--change-map $(DEMO)/valley_future_change.tif --preview $(DEMO)/valley_future.png --overwrite
 	$(BIN)/unerode-cli convert $(DEMO)/valley_past.tif $(DEMO)/valley_past.exr --overwrite
+	@if [ -f $(DATA)/lr04/LR04stack.txt ]; then \
+		$(BIN)/unerode-cli climate-run $(SAMPLE) $(DEMO)/valley_24ka.tif \
+			--chronology $(DATA)/lr04/LR04stack.txt --sea-level $(DATA)/sealevel/spratt2016.txt \
+			--from 0 --to 24 --dt 1000 --snapshots 12,20 --process thermal,fluvial \
+			--K 2e-5 --downstream-below 100 --preview $(DEMO)/valley_24ka.png --overwrite; \
+	else echo "no chronology in $(DATA): climate-run demo skipped (make demo DATA=...)"; fi
 	@echo "demo outputs in $(DEMO)/ (previews: $(DEMO)/*.png)"
 
 bench: $(STAMP)
