@@ -91,36 +91,28 @@ class ThermalProcess:
 
 
 @dataclass
-class ThermalAutomatonProcess:
-    """The thermal cellular automaton of Musgrave et al. 1989 (forward only)."""
+class OutletStepProcess:
+    """A process whose step needs only the base-level cells: the thermal cellular automaton
+    (Musgrave et al. 1989) and hillslope diffusion (001 §6.4), both forward only.
+
+    ``step(elevation, grid, fixed, params, dt)`` returns a SurfaceChange; ``max_dt(grid,
+    params)`` its stable |dt| (None: unconditionally stable).
+    """
 
     surface: Surface
-    params: thermal_ca.ThermalCAParams
-    name: str = "thermal-ca"
+    params: Any
+    name: str
+    step: Callable[..., Any]
+    max_dt: Callable[[Any, Any], float] | None = None
 
     def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
-        return thermal_ca.max_stable_dt(self.surface.terrain.grid, self.params)
+        if self.max_dt is None:
+            return float("inf")
+        return self.max_dt(self.surface.terrain.grid, self.params)
 
     def advance(self, elevation: np.ndarray, dt: float) -> Change:
-        change = thermal_ca.step(elevation, self.surface.terrain.grid,
-                                 self.surface.outlets(elevation), self.params, dt)
-        return _change(change.dh, change.budget)
-
-
-@dataclass
-class HillslopeProcess:
-    """Linear hillslope diffusion, implicit ADI (001 §6.4; forward only)."""
-
-    surface: Surface
-    params: hillslope.HillslopeParams
-    name: str = "hillslope"
-
-    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
-        return float("inf")
-
-    def advance(self, elevation: np.ndarray, dt: float) -> Change:
-        change = hillslope.step(elevation, self.surface.terrain.grid,
-                                self.surface.outlets(elevation), self.params, dt)
+        change = self.step(elevation, self.surface.terrain.grid, self.surface.outlets(elevation),
+                           self.params, dt)
         return _change(change.dh, change.budget)
 
 
@@ -180,15 +172,17 @@ REGISTRY: dict[str, Registered] = {
     ),
     "thermal-ca": Registered(
         thermal_ca.PARAMETERS,
-        lambda t, b, v, o: ThermalAutomatonProcess(
-            _surface(t, b), thermal_ca.ThermalCAParams(**_values(thermal_ca.PARAMETERS, v))),
+        lambda t, b, v, o: OutletStepProcess(
+            _surface(t, b), thermal_ca.ThermalCAParams(**_values(thermal_ca.PARAMETERS, v)),
+            "thermal-ca", thermal_ca.step, thermal_ca.max_stable_dt),
         "the classic thermal cellular automaton (Musgrave et al. 1989)",
         thermal_ca.BACKWARD_REFUSAL,
     ),
     "hillslope": Registered(
         hillslope.PARAMETERS,
-        lambda t, b, v, o: HillslopeProcess(
-            _surface(t, b), hillslope.HillslopeParams(**_values(hillslope.PARAMETERS, v))),
+        lambda t, b, v, o: OutletStepProcess(
+            _surface(t, b), hillslope.HillslopeParams(**_values(hillslope.PARAMETERS, v)),
+            "hillslope", hillslope.step),
         "linear hillslope diffusion, implicit ADI (001 §6.4)",
         hillslope.BACKWARD_REFUSAL,
     ),
