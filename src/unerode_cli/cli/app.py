@@ -13,6 +13,7 @@ from unerode_cli.cli.convert import convert
 from unerode_cli.cli.erode import erode, unerode
 from unerode_cli.cli.flow import flow
 from unerode_cli.cli.info import info
+from unerode_cli.cli.pipeline_cmd import pipeline_app
 from unerode_cli.cli.preview import preview
 from unerode_cli.cli.synth import synth
 
@@ -28,6 +29,7 @@ app = typer.Typer(
 for command in (info, convert, preview, synth, flow, erode, unerode):
     app.command()(command)
 app.command("climate-run")(climate_run)
+app.add_typer(pipeline_app, name="pipeline")
 
 
 def versions() -> str:

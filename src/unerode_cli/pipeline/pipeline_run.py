@@ -1,0 +1,241 @@
+"""Run a resolved pipeline: one subprocess per step, a state file, ``--resume`` and dry runs.
+
+**Isolation.** Each step runs as ``sys.executable -m unerode_cli SUBCOMMAND ...`` in the
+workdir, with the pipeline's stdout and stderr (its messages stream as it runs) and its real
+exit code.
+
+**State file.** ``.<spec-stem>.state.json`` in the workdir, rewritten atomically after each
+change. It holds, per finished step, a key (sha256 of the subcommand and its resolved command
+line, the sha256 of every input file, the step's outputs and the unerode-cli version) and the
+sha256 of each output; and the list of every path a step of this pipeline has been started
+to write (``owned``). Paths are stored relative to the workdir when inside it.
+
+**Resume rules.** With ``--resume`` a step is skipped when its record exists, its key is the
+same as now (same command line, same input contents, same version) and every recorded output
+still exists with the recorded sha256. Anything else runs, so a step whose option changed
+reruns, and so does every later step that reads what it wrote (their input hashes change).
+Without ``--resume`` every step runs. A step's record is dropped before it starts and written
+when it succeeds, so a failed run resumes from the failed step.
+
+**Overwriting.** Specs do not say ``--overwrite``: the runner passes it to a step whose
+outputs exist when all of them were written by this pipeline (listed in ``owned``) or when the
+step says ``overwrite: true``. An existing output that the pipeline did not write is refused
+before anything runs, so a pipeline never clobbers a file it was not told to own.
+
+Flags that only change messages (``-v``/``-q`` passed down from ``pipeline run``) and the
+runner's ``--overwrite`` are not part of a step's key.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shlex
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from unerode_cli import __version__
+from unerode_cli.errors import InputError
+from unerode_cli.pipeline.spec import ResolvedPipeline, ResolvedStep
+from unerode_cli.raster.paths import atomic_path
+
+STATE_VERSION = 1
+
+
+class StepFailed(Exception):
+    """A step exited with a non-zero code; the pipeline stops there."""
+
+    def __init__(self, step: str, command: str, returncode: int) -> None:
+        self.step, self.command, self.returncode = step, command, returncode
+        super().__init__(
+            f"step '{step}' ({command}) failed with exit code {returncode}; earlier outputs and "
+            "the state file are kept, so fix the cause and rerun with --resume.")
+
+    @property
+    def exit_code(self) -> int:
+        """2 when the step refused bad input, 1 for any other failure."""
+        return 2 if self.returncode == 2 else 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Hashes and the state file.
+
+def file_sha256(path: Path) -> str:
+    """sha256 of a file's bytes (``dir`` for a folder)."""
+    if path.is_dir():
+        return "dir"
+    digest = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def step_key(step: ResolvedStep, workdir: Path) -> str:
+    """The content hash that decides whether a finished step is still up to date."""
+    payload = {
+        "command": step.command,
+        "argv": step.argv,
+        "inputs": {_rel(p, workdir): file_sha256(p) for p in step.inputs if p.exists()},
+        "outputs": [_rel(p, workdir) for p in step.outputs],
+        "version": __version__,
+    }
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def _rel(path: Path, workdir: Path) -> str:
+    try:
+        return path.relative_to(workdir).as_posix()
+    except ValueError:
+        return str(path)
+
+
+@dataclass
+class State:
+    """What earlier runs of this pipeline finished (see the module docstring)."""
+
+    path: Path
+    steps: dict[str, dict[str, Any]] = field(default_factory=dict)
+    owned: set[str] = field(default_factory=set)
+
+    @classmethod
+    def load(cls, path: Path) -> State:
+        """Read the state file; none yet gives an empty state."""
+        if not path.exists():
+            return cls(path)
+        try:
+            raw = json.loads(path.read_text(encoding="utf-8"))
+            steps, owned = raw["steps"], raw["owned"]
+            if raw.get("version") != STATE_VERSION or not isinstance(steps, dict):
+                raise ValueError
+        except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+            raise InputError(f"state file {path} is damaged; delete it to run every step again.") from None
+        return cls(path, steps, set(owned))
+
+    def save(self) -> None:
+        """Write the state atomically (a crash leaves the previous state whole)."""
+        payload = {"version": STATE_VERSION, "unerode_cli": __version__,
+                   "steps": self.steps, "owned": sorted(self.owned)}
+        with atomic_path(self.path) as tmp:
+            tmp.write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
+
+    def up_to_date(self, step: ResolvedStep, key: str, workdir: Path) -> bool:
+        """Whether a finished record matches ``key`` and its outputs are still unchanged."""
+        record = self.steps.get(step.name)
+        if not record or record.get("key") != key:
+            return False
+        outputs = record.get("outputs", {})
+        for name, digest in outputs.items():
+            path = workdir / name
+            if not path.exists() or file_sha256(path) != digest:
+                return False
+        return set(outputs) == {_rel(p, workdir) for p in step.outputs}
+
+
+# ---------------------------------------------------------------------------------------------
+# Planning and running.
+
+@dataclass
+class Report:
+    """What a run did: step names that ran and that were skipped."""
+
+    ran: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+
+
+def check_outputs(pipeline: ResolvedPipeline, state: State) -> None:
+    """Refuse, before anything runs, an existing output this pipeline never wrote."""
+    for step in pipeline.steps:
+        if step.overwrite_given:
+            continue
+        for out in step.outputs:
+            if out.exists() and _rel(out, pipeline.workdir) not in state.owned:
+                raise InputError(
+                    f"step '{step.name}' (outputs): {_rel(out, pipeline.workdir)} already exists and "
+                    "was not written by this pipeline; delete it or set options.overwrite: true.")
+
+
+def command_line(step: ResolvedStep, overwrite: bool, verbosity: int = 0) -> list[str]:
+    """The arguments after ``unerode-cli`` for this run of ``step``."""
+    argv = list(step.argv)
+    if overwrite and step.has_overwrite:
+        argv.append("--overwrite")
+    if step.has_verbosity and verbosity:
+        argv += ["-v"] * verbosity if verbosity > 0 else ["-q"] * -verbosity
+    return argv
+
+
+def dry_run(pipeline: ResolvedPipeline, resume: bool) -> list[str]:
+    """One line per step, ``run`` or ``skip`` (what a real run would do), then the command.
+
+    A step that reads the output of a step that would run is shown as ``run``: its inputs
+    will change (outputs carry the time they were written).
+    """
+    state = State.load(pipeline.state_path)
+    check_outputs(pipeline, state)
+    lines, will_run = [], set()
+    for step in pipeline.steps:
+        skip = (resume and not (step.produced_by & will_run)
+                and state.up_to_date(step, step_key(step, pipeline.workdir), pipeline.workdir))
+        if not skip:
+            will_run.add(step.name)
+        overwrite = step.overwrite_given or any(p.exists() for p in step.outputs)
+        shown = shlex.join(["unerode-cli", *command_line(step, overwrite)])
+        lines.append(f"{'skip' if skip else 'run '} {step.name}: {shown}")
+    return lines
+
+
+def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
+                 note: Callable[[str], None] = lambda text: None) -> Report:
+    """Run (or skip) every step in order; raises :class:`StepFailed` at the first failure."""
+    state = State.load(pipeline.state_path)
+    check_outputs(pipeline, state)
+    report, total = Report(), len(pipeline.steps)
+    note(f"pipeline {pipeline.spec_path.name}: {total} step(s) in {pipeline.workdir}")
+    for i, step in enumerate(pipeline.steps, start=1):
+        tag = f"[{i}/{total}] {step.name}"
+        key = step_key(step, pipeline.workdir)
+        if resume and state.up_to_date(step, key, pipeline.workdir):
+            note(f"{tag}: skipped (unchanged since its last run)")
+            report.skipped.append(step.name)
+            continue
+        overwrite = step.overwrite_given or any(p.exists() for p in step.outputs)
+        argv = command_line(step, overwrite, verbosity)
+        note(f"{tag}: unerode-cli {shlex.join(argv)}")
+        state.steps.pop(step.name, None)
+        state.owned.update(_rel(p, pipeline.workdir) for p in step.outputs)
+        state.save()
+        started = time.monotonic()
+        code = _execute(argv, pipeline.workdir)
+        if code != 0:
+            raise StepFailed(step.name, step.command, code)
+        missing = [_rel(p, pipeline.workdir) for p in step.outputs if not p.exists()]
+        if missing:
+            raise RuntimeError(f"step '{step.name}' finished but did not write {', '.join(missing)}.")
+        state.steps[step.name] = {
+            "key": key,
+            "command": step.command,
+            "outputs": {_rel(p, pipeline.workdir): file_sha256(p) for p in step.outputs},
+            "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        }
+        state.save()
+        report.ran.append(step.name)
+        note(f"{tag}: done in {time.monotonic() - started:.1f} s")
+    return report
+
+
+def _execute(argv: list[str], workdir: Path) -> int:
+    """Run ``unerode-cli ARGV`` in ``workdir`` as a child process; its exit code."""
+    env = dict(os.environ)
+    env.setdefault("PYTHONUNBUFFERED", "1")
+    sys.stdout.flush()
+    sys.stderr.flush()
+    completed = subprocess.run([sys.executable, "-m", "unerode_cli", *argv], cwd=workdir, env=env,
+                               check=False)
+    return completed.returncode

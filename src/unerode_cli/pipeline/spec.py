@@ -1,0 +1,485 @@
+"""Pipeline specs (YAML): the model, variable substitution and validation before any step runs.
+
+A spec chains subcommands of ``unerode-cli``; each step is run as its own process::
+
+    version: 1
+    vars:                      # name -> string, number or boolean; `--var NAME=VALUE` overrides
+      size: 32                 # (null: the value must be given with --var)
+      dt: 1000
+    workdir: runs/demo         # optional; default: the spec's folder (relative to it)
+    steps:
+      - name: terrain          # unique; letters, digits, _ . -
+        run: synth             # a subcommand of unerode-cli
+        args: [terrain.tif]    # positional arguments, in order
+        options: {size: "${size}", seed: 3, kind: mountain}
+      - name: eroded
+        run: erode
+        args: ["${steps.terrain.output}", eroded.tif]
+        options:
+          steps: 2             # a value option: one value
+          dt: "${dt}"
+          no-substep: true     # a flag: true gives --no-substep, false leaves it out
+          co: [ZLEVEL=9]       # a repeatable option: a list (or one value)
+          preview: eroded.png  # an output option: also an output of the step
+      - name: picture
+        run: preview
+        args: ["${steps.eroded.output}", eroded_hillshade.png]
+        outputs: []            # extra files the command writes (e.g. snapshots)
+
+Option keys are the long option names without ``--`` (``sea-level``, ``K-d``); ``_`` may stand
+for ``-``. ``${name}`` is replaced by the variable's value anywhere in ``args``, ``options``,
+``outputs`` and ``workdir``; a value that is exactly ``${name}`` keeps the variable's type.
+``$${`` gives a literal ``${``; variable values are not themselves substituted. A ``--var``
+value is text, checked like any other value where it is used. Relative paths are relative to
+the workdir, where every step runs.
+
+**Outputs.** A step's outputs are, in this order: its positional path arguments that are
+outputs (the ``OUT`` of ``SUBCOMMAND IN OUT``, the only argument of ``synth OUT``), the output
+path options it is given (``--preview``, ``--change-map``), then its explicit ``outputs:``
+list. ``${steps.NAME.output}`` is the first of them, written as the spec gave it; ``NAME``
+must be an earlier step. ``overwrite: true`` lets a step replace a file that this pipeline did
+not write; otherwise the runner decides when to pass ``--overwrite`` (see ``pipeline_run``).
+Which parameters are output paths is told by the command layer
+(:class:`CommandSchema`), so this module knows nothing of click or typer.
+
+**Validation** raises :class:`~unerode_cli.errors.InputError` (exit code 2) naming the step and
+the field (``step 'past' (options.dt): ...``) for: an unknown subcommand or option, a value of
+the wrong type (a list for a flag, text for a number, a choice not offered), an undefined
+variable, a reference to an unknown or later step, an input file that neither exists nor is
+written by an earlier step, two steps writing the same file, and duplicate step names.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from unerode_cli.errors import InputError
+
+Scalar = str | int | float | bool
+NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$"
+_REFERENCE = re.compile(r"\$(\$?)\{([^}]*)\}")
+
+
+# ---------------------------------------------------------------------------------------------
+# What the command layer tells us about each subcommand (built from click, passed in).
+
+@dataclass(frozen=True)
+class ParamSchema:
+    """One parameter of a subcommand, as far as a spec needs to know it.
+
+    ``kind``: ``value`` (one value), ``multiple`` (repeatable), ``flag`` (true/false),
+    ``count`` (repeated flag, e.g. ``-v``). ``type``: ``path``, ``int``, ``float``, ``str`` or
+    ``choice``. ``role``: ``input`` or ``output`` for path parameters, ``other`` else.
+    """
+
+    name: str
+    flags: tuple[str, ...] = ()
+    kind: Literal["value", "multiple", "flag", "count"] = "value"
+    type: Literal["path", "int", "float", "str", "choice"] = "str"
+    role: Literal["input", "output", "other"] = "other"
+    choices: tuple[str, ...] = ()
+    minimum: float | None = None
+    maximum: float | None = None
+    required: bool = False
+    off_flags: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class CommandSchema:
+    """A subcommand: its positional arguments (in order) and options by spec key."""
+
+    name: str
+    arguments: tuple[ParamSchema, ...]
+    options: Mapping[str, ParamSchema]
+
+    def option(self, key: str) -> ParamSchema | None:
+        """The option a spec key names (``sea-level``, ``sea_level`` or ``--sea-level``)."""
+        bare = key.lstrip("-")
+        return self.options.get(bare) or self.options.get(bare.replace("_", "-"))
+
+
+# ---------------------------------------------------------------------------------------------
+# The YAML model.
+
+class StepSpec(BaseModel):
+    """One step: a subcommand with its positional arguments and options."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(pattern=NAME_PATTERN)
+    run: str
+    args: list[Scalar] = []
+    options: dict[str, Scalar | list[Scalar]] = {}
+    outputs: list[str] = []
+
+
+class PipelineSpec(BaseModel):
+    """A whole spec: format version, variables, working folder and steps."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    version: Literal[1]
+    vars: dict[str, Scalar | None] = {}
+    workdir: str | None = None
+    steps: list[StepSpec] = Field(min_length=1)
+
+
+def load_spec(path: Path) -> PipelineSpec:
+    """Read and check the structure of a YAML spec (one-sentence InputError when wrong)."""
+    if not path.is_file():
+        raise InputError(f"pipeline spec {path} does not exist.")
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" (line {mark.line + 1})" if mark is not None else ""
+        raise InputError(f"pipeline spec {path} is not valid YAML{where}.") from None
+    except UnicodeDecodeError:
+        raise InputError(f"pipeline spec {path} is not a UTF-8 text file.") from None
+    if not isinstance(raw, dict):
+        raise InputError(f"pipeline spec {path} must be a YAML mapping with version and steps.")
+    try:
+        return PipelineSpec.model_validate(raw)
+    except ValidationError as exc:
+        raise InputError(_describe(exc, raw)) from None
+
+
+def _describe(exc: ValidationError, raw: dict[str, Any]) -> str:
+    """The first validation error of a spec as one sentence naming the step and field."""
+    error = exc.errors()[0]
+    loc = list(error["loc"])
+    message = error["msg"].rstrip(".")
+    if error["type"] == "extra_forbidden":
+        message = "is not a known field"
+    elif error["type"] == "missing":
+        message = "is missing"
+    elif error.get("input", "") is None:
+        message = "has no value (null)"
+    elif error["type"] == "literal_error":
+        message = f"must be {error['ctx']['expected']}"
+    if len(loc) >= 2 and loc[0] == "steps" and isinstance(loc[1], int):
+        steps = raw.get("steps")
+        name = None
+        if isinstance(steps, list) and loc[1] < len(steps) and isinstance(steps[loc[1]], dict):
+            name = steps[loc[1]].get("name")
+        who = f"step '{name}'" if isinstance(name, str) else f"step {loc[1] + 1}"
+        # union members show up as extra loc parts ("str", "list[...]"): keep the spec's path
+        fields = [str(p) for p in loc[2:] if not _union_member(p)]
+        if len(fields) < len(loc) - 2 and error.get("input", "") is not None:
+            message = "expected text, a number, true/false or a list of them"
+        return f"{who} ({'.'.join(fields) or 'step'}): {message}."
+    return f"spec field '{'.'.join(str(p) for p in loc) or 'spec'}': {message}."
+
+
+def _union_member(part: object) -> bool:
+    """Whether a pydantic error location part names a union member, not a spec field."""
+    return isinstance(part, str) and ("[" in part or part in ("str", "int", "float", "bool"))
+
+
+# ---------------------------------------------------------------------------------------------
+# Resolution: substitute, type-check and turn each step into a command line.
+
+@dataclass
+class ResolvedStep:
+    """A step ready to run: ``argv`` follows ``unerode-cli``; paths are absolute."""
+
+    name: str
+    command: str
+    argv: list[str]
+    inputs: list[Path]
+    outputs: list[Path]
+    overwrite_given: bool
+    has_overwrite: bool
+    has_verbosity: bool
+    produced_by: set[str] = field(default_factory=set)
+
+
+@dataclass
+class ResolvedPipeline:
+    """The validated pipeline: where it runs and its steps in order."""
+
+    spec_path: Path
+    workdir: Path
+    steps: list[ResolvedStep]
+
+    @property
+    def state_path(self) -> Path:
+        return self.workdir / f".{self.spec_path.stem}.state.json"
+
+
+def parse_var_overrides(items: list[str]) -> dict[str, str]:
+    """``NAME=VALUE`` strings of ``--var`` as a dict."""
+    values: dict[str, str] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not re.match(NAME_PATTERN, name.strip()):
+            raise InputError(f"--var expects NAME=VALUE, got '{item}'.")
+        values[name.strip()] = value
+    return values
+
+
+def resolve(spec: PipelineSpec, spec_path: Path, schemas: Mapping[str, CommandSchema],
+            overrides: Mapping[str, str] | None = None) -> ResolvedPipeline:
+    """Validate ``spec`` against the subcommands and return the steps' command lines."""
+    variables = _variables(spec, overrides or {})
+    base = spec_path.resolve().parent
+    workdir = base
+    if spec.workdir is not None:
+        text = _substitute(spec.workdir, variables, {}, "workdir")
+        workdir = (base / str(text)).resolve()
+        if not workdir.is_dir():
+            raise InputError(f"spec field 'workdir': folder {workdir} does not exist.")
+    resolver = _Resolver(workdir, variables, schemas, {s.name for s in spec.steps})
+    steps = [resolver.step(step) for step in spec.steps]
+    return ResolvedPipeline(spec_path.resolve(), workdir, steps)
+
+
+def _variables(spec: PipelineSpec, overrides: Mapping[str, str]) -> dict[str, Scalar | None]:
+    values: dict[str, Scalar | None] = dict(spec.vars)
+    for name, value in overrides.items():
+        if name not in values:
+            known = ", ".join(sorted(values)) or "none"
+            raise InputError(f"--var {name}: the spec declares no variable '{name}' (declared: {known}).")
+        values[name] = value
+    return values
+
+
+def _substitute(value: Scalar, variables: Mapping[str, Scalar | None],
+                outputs: Mapping[str, str | None], where: str,
+                all_steps: frozenset[str] | set[str] = frozenset()) -> Scalar:
+    """Replace ``${var}`` and ``${steps.NAME.output}`` in ``value``; ``where`` names the field."""
+    if not isinstance(value, str):
+        return value
+
+    def lookup(ref: str) -> Scalar:
+        if ref.startswith("steps."):
+            parts = ref.split(".")
+            if len(parts) < 3 or parts[-1] != "output":
+                raise InputError(f"{where}: '${{{ref}}}' is not a reference; use ${{steps.NAME.output}}.")
+            step = ".".join(parts[1:-1])
+            if step not in outputs and step in all_steps:
+                raise InputError(f"{where}: '${{{ref}}}' refers to step '{step}', which does not run "
+                                 "before this one; a step can only use outputs of earlier steps.")
+            if step not in outputs:
+                raise InputError(f"{where}: '${{{ref}}}' refers to step '{step}', "
+                                 "which is not a step of this spec.")
+            produced = outputs[step]
+            if produced is None:
+                raise InputError(f"{where}: '${{{ref}}}' refers to step '{step}', which has no output.")
+            return produced
+        if ref not in variables:
+            raise InputError(f"{where}: variable '{ref}' is not defined in vars.")
+        found = variables[ref]
+        if found is None:
+            raise InputError(f"{where}: variable '{ref}' has no value; pass --var {ref}=VALUE.")
+        return found
+
+    whole = _REFERENCE.fullmatch(value)
+    if whole and not whole.group(1):
+        return lookup(whole.group(2).strip())
+
+    def replace(match: re.Match[str]) -> str:
+        if match.group(1):
+            return "${" + match.group(2) + "}"
+        found = lookup(match.group(2).strip())
+        return _text(found)
+
+    return _REFERENCE.sub(replace, value)
+
+
+def _text(value: Scalar) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
+
+
+class _Resolver:
+    """Walks the steps in order, remembering what earlier steps write."""
+
+    def __init__(self, workdir: Path, variables: Mapping[str, Scalar | None],
+                 schemas: Mapping[str, CommandSchema], names: set[str]) -> None:
+        self.names = names
+        self.workdir = workdir
+        self.variables = variables
+        self.schemas = schemas
+        self.primary: dict[str, str | None] = {}   # step name -> its first output as written
+        self.writers: dict[Path, str] = {}          # output path -> step that writes it
+
+    def path(self, text: str) -> Path:
+        p = Path(text).expanduser()
+        return (p if p.is_absolute() else self.workdir / p).resolve()
+
+    def step(self, step: StepSpec) -> ResolvedStep:
+        who = f"step '{step.name}'"
+        if step.name in self.primary:
+            raise InputError(f"{who} (name): the name is used by an earlier step; step names must be unique.")
+        schema = self.schemas.get(step.run)
+        if schema is None:
+            known = ", ".join(sorted(self.schemas))
+            raise InputError(f"{who} (run): unknown subcommand '{step.run}' (known: {known}).")
+        sub = lambda v, f: _substitute(v, self.variables, self.primary, f"{who} ({f})",  # noqa: E731
+                                       self.names)
+
+        argv: list[str] = [schema.name]
+        outputs_written: list[str] = []
+        inputs: list[tuple[str, str, bool]] = []     # (text, field, required to exist)
+        argv_args = self._arguments(step, schema, sub, outputs_written, inputs)
+        argv_opts, overwrite = self._options(step, schema, sub, outputs_written, inputs)
+        argv += argv_args + argv_opts
+        for i, out in enumerate(step.outputs):
+            outputs_written.append(str(sub(out, f"outputs[{i}]")))
+
+        produced_by: set[str] = set()
+        input_paths: list[Path] = []
+        for text, where, required in inputs:
+            p = self.path(text)
+            if p in self.writers:
+                produced_by.add(self.writers[p])
+                input_paths.append(p)
+            elif p.exists():
+                input_paths.append(p)
+            elif required:
+                raise InputError(f"{who} ({where}): input file {text} does not exist "
+                                 "and no earlier step writes it.")
+        output_paths: list[Path] = []
+        for text in outputs_written:
+            p = self.path(text)
+            if p in self.writers:
+                raise InputError(f"{who} (outputs): {text} is also written by step '{self.writers[p]}'.")
+            output_paths.append(p)
+        for p in output_paths:
+            self.writers[p] = step.name
+        self.primary[step.name] = outputs_written[0] if outputs_written else None
+        return ResolvedStep(step.name, schema.name, argv, _unique(input_paths), output_paths,
+                            overwrite, "overwrite" in schema.options,
+                            "verbose" in schema.options and "quiet" in schema.options, produced_by)
+
+    def _arguments(self, step, schema, sub, outputs_written, inputs) -> list[str]:
+        who = f"step '{step.name}'"
+        variadic = any(a.kind == "multiple" for a in schema.arguments)
+        needed = sum(1 for a in schema.arguments if a.required)
+        if not variadic and len(step.args) > len(schema.arguments):
+            raise InputError(f"{who} (args): {step.run} takes {len(schema.arguments)} "
+                             f"positional argument(s), got {len(step.args)}.")
+        if len(step.args) < needed:
+            names = " ".join(a.name.upper() for a in schema.arguments)
+            raise InputError(f"{who} (args): {step.run} needs {needed} positional "
+                             f"argument(s) ({names}), got {len(step.args)}.")
+        argv: list[str] = []
+        for i, raw in enumerate(step.args):
+            where = f"args[{i}]"
+            param = schema.arguments[min(i, len(schema.arguments) - 1)]
+            text = _check_value(sub(raw, where), param, f"{who} ({where})")
+            self._note_path(text, param, where, outputs_written, inputs)
+            argv.append(text)
+        return argv
+
+    def _options(self, step, schema, sub, outputs_written, inputs) -> tuple[list[str], bool]:
+        who = f"step '{step.name}'"
+        argv: list[str] = []
+        seen: dict[str, str] = {}
+        overwrite = False
+        for key, raw in step.options.items():
+            where = f"options.{key}"
+            param = schema.option(key)
+            if param is None:
+                raise InputError(f"{who} ({where}): {step.run} has no option --{key.lstrip('-')}.")
+            if param.name in seen:
+                raise InputError(f"{who} ({where}): the same option as options.{seen[param.name]}.")
+            seen[param.name] = key
+            flag = param.flags[0]
+            context = f"{who} ({where})"
+            if param.kind == "flag":
+                value = sub(raw, where) if not isinstance(raw, list) else raw
+                on = _check_bool(value, context)
+                if param.name == "overwrite":
+                    overwrite = on
+                    continue        # the runner passes --overwrite itself (see pipeline_run)
+                if on:
+                    argv.append(flag)
+                elif param.off_flags:
+                    argv.append(param.off_flags[0])
+            elif param.kind == "count":
+                value = sub(raw, where) if not isinstance(raw, list) else raw
+                argv += [flag] * _check_count(value, context)
+            elif param.kind == "multiple":
+                items = raw if isinstance(raw, list) else [raw]
+                for j, item in enumerate(items):
+                    field_name = f"{where}[{j}]" if isinstance(raw, list) else where
+                    text = _check_value(sub(item, field_name), param, f"{who} ({field_name})")
+                    self._note_path(text, param, field_name, outputs_written, inputs)
+                    argv += [flag, text]
+            else:
+                if isinstance(raw, list):
+                    raise InputError(f"{context}: --{key.lstrip('-')} takes one value, got a list.")
+                text = _check_value(sub(raw, where), param, context)
+                self._note_path(text, param, where, outputs_written, inputs)
+                argv += [flag, text]
+        return argv, overwrite
+
+    def _note_path(self, text: str, param: ParamSchema, where: str,
+                   outputs_written: list[str], inputs: list[tuple[str, str, bool]]) -> None:
+        if param.type == "path" and param.role == "output":
+            outputs_written.append(text)
+        elif param.type == "path":
+            inputs.append((text, where, True))
+        elif param.type == "str" and text:
+            inputs.append((text, where, False))   # e.g. a parameter raster: hashed if a file
+
+
+def _unique(paths: list[Path]) -> list[Path]:
+    return list(dict.fromkeys(paths))
+
+
+def _check_bool(value: Scalar | list[Scalar], context: str) -> bool:
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, str) and value.lower() in ("true", "false"):
+        return value.lower() == "true"
+    shown = "a list" if isinstance(value, list) else repr(value)
+    raise InputError(f"{context}: this flag takes true or false, got {shown}.")
+
+
+def _check_count(value: Scalar | list[Scalar], context: str) -> int:
+    if isinstance(value, bool):
+        return int(value)
+    try:
+        count = int(str(value))
+    except ValueError:
+        count = -1
+    if isinstance(value, list) or count < 0:
+        raise InputError(f"{context}: expected a count (0, 1, 2, ...) or true/false, got {value!r}.")
+    return count
+
+
+def _check_value(value: Scalar, param: ParamSchema, context: str) -> str:
+    """The command-line text of one value, checked against the parameter's type."""
+    if isinstance(value, bool):
+        raise InputError(f"{context}: expected {_kind_name(param)}, got {_text(value)}.")
+    text = _text(value)
+    if param.type in ("int", "float"):
+        try:
+            number = int(text) if param.type == "int" else float(text)
+        except ValueError:
+            raise InputError(f"{context}: expected {_kind_name(param)}, got '{text}'.") from None
+        if param.minimum is not None and number < param.minimum:
+            raise InputError(f"{context}: must be ≥ {param.minimum:g}, got {text}.")
+        if param.maximum is not None and number > param.maximum:
+            raise InputError(f"{context}: must be ≤ {param.maximum:g}, got {text}.")
+    elif param.type == "choice" and text not in param.choices:
+        raise InputError(f"{context}: expected one of {', '.join(param.choices)}, got '{text}'.")
+    elif param.type == "path" and not text:
+        raise InputError(f"{context}: expected a path, got an empty value.")
+    return text
+
+
+def _kind_name(param: ParamSchema) -> str:
+    return {"int": "an integer", "float": "a number", "path": "a path",
+            "choice": "one of " + ", ".join(param.choices)}.get(param.type, "a value")
