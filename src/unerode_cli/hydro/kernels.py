@@ -78,6 +78,17 @@ def _heap_pop(heap, size):
     return top, size
 
 
+# Mean number of cells per bucket of the priority queue of ``priority_flood_epsilon``.
+CELLS_PER_BUCKET = 8
+
+
+@numba.njit(cache=True, inline="always")
+def _bucket(key, zmin, inv_width, last):
+    """Bucket (0..last) of a priority-queue key (m): floor((key − zmin) / width), clamped.
+    Non-decreasing in ``key``, which is all the queue needs."""
+    return min(max(np.int64((key - zmin) * inv_width), 0), last)
+
+
 @numba.njit(cache=True)
 def priority_flood_epsilon(z, valid, outlets):
     """Priority-flood+ε (Barnes, Lehman & Mulla 2014, Algorithm 3) on a routing copy of ``z``.
@@ -89,6 +100,14 @@ def priority_flood_epsilon(z, valid, outlets):
     routing surface: that sequence is an order in which every cell comes after all of its
     strictly lower neighbours. ``z`` is not modified; nodata cells are never entered.
 
+    The priority queue is a bucket queue (Dial 1969) in front of a 4-ary min-heap. Its keys
+    are elevations, and a key pushed is never below the last one taken (it is above the cell
+    being processed), so the elevation range is cut into about n / CELLS_PER_BUCKET buckets
+    of equal width: a key in a later bucket than the current one is appended to that bucket's
+    list (O(1)), the others go on the heap, which only holds the current bucket and stays
+    small; when the heap runs empty, the next non-empty bucket is poured into it. Cells leave
+    in the same order as from a single heap (up to the order of equal keys).
+
     Args:
         z: float64[ny, nx] elevation (m).
         valid: bool[ny, nx] domain mask.
@@ -99,57 +118,125 @@ def priority_flood_epsilon(z, valid, outlets):
          int64[k] flat indices of the k valid cells reached, outlets included, in reverse
          order of leaving the queues: every cell before its strictly lower neighbours).
     """
+    n = z.size
+    zf = np.empty(n, dtype=np.float64)
+    descending = np.empty(n, dtype=np.int64)
+    count = flood_into(
+        z,
+        valid,
+        outlets,
+        zf,
+        descending,
+        np.empty(n, dtype=np.bool_),
+        np.empty(bucket_count(n), dtype=np.int64),
+        np.empty(n, dtype=np.int64),
+        np.empty((n, 2), dtype=np.float64),
+        np.empty(n, dtype=np.int64),
+    )
+    return zf.reshape(z.shape), descending[n - count :]
+
+
+@numba.njit(cache=True)
+def bucket_count(n):
+    """Number of buckets of the priority queue of ``flood_into`` for ``n`` cells."""
+    return max(n // CELLS_PER_BUCKET, 1) + 1
+
+
+@numba.njit(cache=True)
+def flood_into(z, valid, outlets, zf, descending, closed, first, following, heap, pit):
+    """``priority_flood_epsilon`` into arrays given by the caller, which may reuse them.
+
+    Args:
+        z, valid, outlets: as for ``priority_flood_epsilon``.
+        zf: float64[ny*nx] set to the routing surface (m).
+        descending: int64[ny*nx] whose last ``count`` entries are set to the order.
+        closed: bool[ny*nx], first: int[bucket_count(ny*nx)], following: int[ny*nx],
+            heap: float64[ny*nx, 2], pit: int[ny*nx]: scratch, any content; the integer
+            arrays hold flat cell indices and may be int32 when ny*nx < 2^31.
+
+    Returns:
+        count, the number of valid cells reached.
+    """
     ny, nx = z.shape
     n = ny * nx
-    zf = np.empty(n, dtype=np.float64)
-    closed = np.empty(n, dtype=np.bool_)
     zin = z.ravel()
     ok = valid.ravel()
     out = outlets.ravel()
-    heap = np.empty((n, 2), dtype=np.float64)
-    size = 0
+    zmin = np.inf
+    zmax = -np.inf
     for i in range(n):
         if ok[i]:
             zf[i] = zin[i]
             closed[i] = out[i]
-            if out[i]:
-                size = _heap_push(heap, size, zin[i], i)
+            zmin = min(zmin, zin[i])
+            zmax = max(zmax, zin[i])
         else:
             zf[i] = np.inf
             closed[i] = True
-    pit = np.empty(n, dtype=np.int64)
+    last = first.size - 1
+    span = zmax - zmin
+    inv_width = last / span if span > 0.0 else 0.0
+    if not inv_width < np.inf:  # unbounded range or overflow: a single bucket
+        inv_width = 0.0
+    first[:] = -1
+    for i in range(n):
+        if ok[i] and out[i]:
+            b = _bucket(zin[i], zmin, inv_width, last)
+            following[i] = first[b]
+            first[b] = i
+    current = -1  # buckets up to this one are on the heap
+    size = 0
+    off = neighbour_offsets(nx)
+    inv_nx = 1.0 / nx
     pit_head = 0
     pit_tail = 0
-    descending = np.empty(n, dtype=np.int64)
     count = 0
-    while size > 0 or pit_head < pit_tail:
+    while True:
+        while size == 0 and current < last:
+            current += 1
+            j = first[current]
+            while j >= 0:
+                size = _heap_push(heap, size, zf[j], j)
+                j = following[j]
         if pit_head < pit_tail and (size == 0 or zf[pit[pit_head]] < heap[0, 0]):
             c = pit[pit_head]
             pit_head += 1
-        else:
+        elif size > 0:
             c, size = _heap_pop(heap, size)
+        else:
+            break
         count += 1
         descending[n - count] = c
-        r = c // nx
+        r = row_of(c, inv_nx)
         col = c - r * nx
+        interior = 0 < r < ny - 1 and 0 < col < nx - 1
         zc = zf[c]
-        lifted = max(zc + FILL_EPSILON, np.nextafter(zc, np.inf))
+        lifted = zc + FILL_EPSILON  # = max(zc + ε, next float above zc)
+        if lifted <= zc:
+            lifted = np.nextafter(zc, np.inf)
         for k in range(8):
-            rr = r + DROW[k]
-            cc = col + DCOL[k]
-            if rr < 0 or rr >= ny or cc < 0 or cc >= nx:
-                continue
-            j = rr * nx + cc
+            if not interior:
+                rr = r + DROW[k]
+                cc = col + DCOL[k]
+                if rr < 0 or rr >= ny or cc < 0 or cc >= nx:
+                    continue
+            j = c + off[k]
             if closed[j]:
                 continue
             closed[j] = True
-            if zf[j] <= zc:
+            zj = zf[j]
+            if zj <= zc:
                 zf[j] = lifted
                 pit[pit_tail] = j
                 pit_tail += 1
             else:
-                size = _heap_push(heap, size, zf[j], j)
-    return zf.reshape(ny, nx), descending[n - count :]
+                b = _bucket(zj, zmin, inv_width, last)
+                if b <= current:
+                    size = _heap_push(heap, size, zj, j)
+                else:
+                    following[j] = first[b]
+                    first[b] = j
+    return count
 
 
 @numba.njit(cache=True, inline="always")
@@ -236,9 +323,68 @@ def neighbour_offsets(nx):
     return DROW * nx + DCOL
 
 
+@numba.njit(cache=True, inline="always")
+def row_of(i, inv_nx):
+    """Row of flat index ``i`` on a grid whose row length has the reciprocal ``inv_nx``:
+    floor((i + 0.5) / nx), exact while ny·nx < 2^40 (the rounding error of the product is far
+    below the 0.5/nx margin to the nearest integer); cheaper than an integer division."""
+    return np.int64((i + 0.5) * inv_nx)
+
+
+@numba.njit(cache=True, inline="always")
+def slope_to(z, h, j, w):
+    """Slope (m/m) from a cell of routing elevation ``h`` down to cell ``j``, 0 if ``j`` is
+    not lower; ``w`` is the inverse distance (1/m). As in ``flow_fractions``."""
+    return max(h - z[j], 0.0) * w
+
+
+@numba.njit(cache=True, inline="always")
+def steepest_of(z, i, h, off, inv_dist):
+    """Neighbour number (0..7) of the steepest lower neighbour of interior cell ``i``, -1 if
+    none is lower; ties go to the first in row-major order. Same slopes and comparisons as
+    ``flow_fractions`` with ``single`` (D8), without branches on the data."""
+    best = -1
+    best_slope = 0.0
+    for k in range(8):
+        s = slope_to(z, h, i + off[k], inv_dist[k])
+        steeper = s > best_slope
+        best = k if steeper else best
+        best_slope = s if steeper else best_slope
+    return best
+
+
+@numba.njit(cache=True, inline="always")
+def spread_mfd(acc, z, i, h, off, inv_dist, value):
+    """Multiple flow directions at an interior cell ``i`` in one pass, for a 1-d ``acc``:
+    ``acc[i + off[k]] += frac[k] * value`` with the fractions of ``flow_fractions`` (000 Eq. 6),
+    computed with the same operations in the same order, so the shares are bit-identical."""
+    s0 = slope_to(z, h, i + off[0], inv_dist[0])
+    s1 = slope_to(z, h, i + off[1], inv_dist[1])
+    s2 = slope_to(z, h, i + off[2], inv_dist[2])
+    s3 = slope_to(z, h, i + off[3], inv_dist[3])
+    s4 = slope_to(z, h, i + off[4], inv_dist[4])
+    s5 = slope_to(z, h, i + off[5], inv_dist[5])
+    s6 = slope_to(z, h, i + off[6], inv_dist[6])
+    s7 = slope_to(z, h, i + off[7], inv_dist[7])
+    total = 0.0 + s0 + s1 + s2 + s3 + s4 + s5 + s6 + s7
+    scale = 1.0 / total if total > 0.0 else 0.0
+    acc[i + off[0]] += s0 * scale * value
+    acc[i + off[1]] += s1 * scale * value
+    acc[i + off[2]] += s2 * scale * value
+    acc[i + off[3]] += s3 * scale * value
+    acc[i + off[4]] += s4 * scale * value
+    acc[i + off[5]] += s5 * scale * value
+    acc[i + off[6]] += s6 * scale * value
+    acc[i + off[7]] += s7 * scale * value
+
+
 @numba.njit(cache=True)
 def accumulate_flow(zf, outlets, order, dx, dy, single, source):
     """Upstream integral of ``source`` (000 Eq. 5): acc = source + Σ_donors α · acc(donor).
+
+    One pass over ``order`` (donors first, 000 Algorithm 1). Interior cells compute their
+    fractions and spread in one go (``steepest_of``, ``spread_mfd``), border cells through
+    ``flow_fractions`` and ``spread``; both give the same shares.
 
     Args:
         zf: float64[ny, nx] routing surface (+inf on nodata).
@@ -252,22 +398,40 @@ def accumulate_flow(zf, outlets, order, dx, dy, single, source):
     Returns:
         float64[ny*nx] accumulated values, 0 on cells not in ``order``.
     """
+    acc = np.zeros(zf.size, dtype=np.float64)
+    accumulate_into(zf, outlets, order, dx, dy, single, source, acc)
+    return acc
+
+
+@numba.njit(cache=True)
+def accumulate_into(zf, outlets, order, dx, dy, single, source, acc):
+    """``accumulate_flow`` into ``acc`` (float64[ny*nx], all 0 on entry)."""
     ny, nx = zf.shape
     z = zf.ravel()
     out = outlets.ravel()
     off = neighbour_offsets(nx)
     inv_dist = inverse_distances(dx, dy)
+    inv_nx = 1.0 / nx
     frac = np.empty(8, dtype=np.float64)
-    acc = np.zeros(ny * nx, dtype=np.float64)
     uniform = source.size == 1
     for idx in range(order.size):
         i = order[idx]
         a = acc[i] + (source[0] if uniform else source[i])
         acc[i] = a
-        if not out[i]:
+        if out[i]:
+            continue
+        r = row_of(i, inv_nx)
+        col = i - r * nx
+        if 0 < r < ny - 1 and 0 < col < nx - 1:
+            if single:
+                k = steepest_of(z, i, z[i], off, inv_dist)
+                if k >= 0:
+                    acc[i + off[k]] += a
+            else:
+                spread_mfd(acc, z, i, z[i], off, inv_dist, a)
+        else:
             interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
             spread(acc, i, off, frac, a, interior)
-    return acc
 
 
 @numba.njit(cache=True)

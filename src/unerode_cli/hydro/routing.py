@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import Literal
 
@@ -14,6 +15,30 @@ from unerode_cli.hydro.outlets import require_outlets
 
 Method = Literal["mfd", "d8"]
 METHODS: tuple[str, ...] = ("mfd", "d8")
+
+
+class _Scratch(threading.local):
+    """Work arrays kept between calls, one set per thread."""
+
+    def __init__(self) -> None:
+        self.arrays: dict[str, np.ndarray] = {}
+
+
+_SCRATCH = _Scratch()
+
+
+def scratch(name: str, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+    """A work array (any content) kept for the next call that asks for ``name`` in this
+    thread with the same shape and dtype, e.g. in every time step on one grid: a fresh
+    array of tens of MB costs more in page faults than the kernels spend filling it. Only
+    the latest array of each name is kept. Callers must not hand the array out."""
+    arrays = _SCRATCH.arrays
+    array = arrays.get(name)
+    if array is None or array.shape != shape or array.dtype != dtype:
+        arrays.pop(name, None)
+        array = np.empty(shape, dtype=dtype)
+        arrays[name] = array
+    return array
 
 
 @dataclass(frozen=True)
@@ -82,8 +107,24 @@ def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method
     z = np.ascontiguousarray(elevation, dtype=np.float64)
     if not np.isfinite(z).all() and not np.isfinite(z[valid]).all():
         raise ValueError("the elevation has non-finite values inside the domain (not nodata)")
-    filled, order = kernels.priority_flood_epsilon(z, valid, outlets)
-    unreached = int(np.count_nonzero(valid)) - order.size
+    n = z.size
+    index = np.int32 if n < 2**31 else np.int64  # cell indices in the work arrays
+    filled = np.empty(grid.shape, dtype=np.float64)
+    descending = np.empty(n, dtype=np.int64)
+    count = kernels.flood_into(
+        z,
+        valid,
+        outlets,
+        filled.ravel(),
+        descending,
+        scratch("flood.closed", (n,), np.bool_),
+        scratch("flood.first", (kernels.bucket_count(n),), index),
+        scratch("flood.following", (n,), index),
+        scratch("flood.heap", (n, 2), np.float64),
+        scratch("flood.pit", (n,), index),
+    )
+    order = descending[n - count :]
+    unreached = int(np.count_nonzero(valid)) - count
     if unreached:
         raise ValueError(
             f"{unreached} valid cells cannot drain to any outlet: add outlets in every "
@@ -100,10 +141,12 @@ def accumulate(routing: Routing, source: float | np.ndarray) -> np.ndarray:
     """
     grid = routing.grid
     src = flat_field(source, grid.shape, "source") * grid.cell_area
-    acc = kernels.accumulate_flow(
-        routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single, src
+    acc = np.zeros(grid.shape, dtype=np.float64)
+    kernels.accumulate_into(
+        routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single, src,
+        acc.ravel(),
     )
-    return acc.reshape(grid.shape)
+    return acc
 
 
 def drainage_area(routing: Routing) -> np.ndarray:

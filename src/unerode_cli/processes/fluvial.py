@@ -148,7 +148,7 @@ def step(
         the change (Δh with the uplift U·dt included), the fluxes Q and Q_s and the mass budget.
     """
     from unerode_cli.hydro.fields import flat_field
-    from unerode_cli.hydro.routing import route
+    from unerode_cli.hydro.routing import route, scratch
     from unerode_cli.processes import fluvial_kernels as fk
 
     params.validate(grid)
@@ -158,9 +158,12 @@ def step(
     elif not np.array_equal(routing.outlets, outlets & grid.valid):
         raise ValueError("the routing was computed with other outlets than the ones given")
     h = np.ascontiguousarray(elevation, dtype=np.float64)
-    slope = fk.slope_magnitude(h, grid.valid, grid.dx, grid.dy, mode)
     shape = grid.shape
-    dh, q, qs, erosion, deposition, outflow = fk.fluvial_sweep(
+    slope = scratch("fluvial.slope", (h.size,), np.float64)
+    fk.slope_into(h, grid.valid, grid.dx, grid.dy, mode, slope)
+    dh = np.zeros(shape, dtype=np.float64)
+    flux = np.zeros((*shape, 2), dtype=np.float64)  # Q and Q_s side by side
+    erosion, deposition, outflow = fk.fluvial_sweep_into(
         routing.filled,
         routing.outlets,
         routing.order,
@@ -175,10 +178,12 @@ def step(
         float(params.m),
         float(params.n),
         float(dt),
+        dh.ravel(),
+        flux.reshape(-1, 2),
     )
     removed, added = (erosion, deposition) if dt >= 0 else (deposition, erosion)
     budget = MassBudget(abs(dt) * removed, abs(dt) * added, dt * outflow)
-    return FluvialChange(dh.reshape(shape), qs.reshape(shape), q.reshape(shape), budget)
+    return FluvialChange(dh, flux[:, :, 1], flux[:, :, 0], budget)
 
 
 def max_stable_dt(
@@ -201,13 +206,14 @@ def max_stable_dt(
     deposition term does not restrict the step (000 §6).
     """
     from unerode_cli.hydro.fields import flat_field
-    from unerode_cli.hydro.routing import accumulate
+    from unerode_cli.hydro.routing import accumulate, scratch
     from unerode_cli.processes import fluvial_kernels as fk
 
     params.validate(grid)
     h = np.ascontiguousarray(elevation, dtype=np.float64)
     q = accumulate(routing, params.precipitation).ravel()
-    slope = fk.slope_magnitude(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM)
+    slope = scratch("fluvial.slope", (h.size,), np.float64)
+    fk.slope_into(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM, slope)
     free = (grid.valid & ~routing.outlets).ravel()
     k = flat_field(params.k, grid.shape, "k")
     speed = fk.max_speed(q, slope, free, k, float(params.m), float(params.n))

@@ -9,7 +9,15 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from unerode_cli.hydro.kernels import flow_fractions, inverse_distances, neighbour_offsets, spread
+from unerode_cli.hydro.kernels import (
+    flow_fractions,
+    inverse_distances,
+    neighbour_offsets,
+    row_of,
+    slope_to,
+    spread,
+    steepest_of,
+)
 
 DOWNSTREAM = 0
 UPWIND = 1
@@ -56,11 +64,19 @@ def slope_magnitude(h, valid, dx, dy, mode):
     Returns:
         float64[ny*nx], 0 on nodata.
     """
+    s = np.empty(h.size, dtype=np.float64)
+    slope_into(h, valid, dx, dy, mode, s)
+    return s
+
+
+@numba.njit(cache=True)
+def slope_into(h, valid, dx, dy, mode, s):
+    """``slope_magnitude`` into ``s`` (float64[ny*nx], any content on entry)."""
     ny, nx = h.shape
-    s = np.zeros(ny * nx, dtype=np.float64)
     for r in range(ny):
         for c in range(nx):
             if not valid[r, c]:
+                s[r * nx + c] = 0.0
                 continue
             h0 = h[r, c]
             he = h[r, c + 1] if c + 1 < nx and valid[r, c + 1] else h0
@@ -70,7 +86,48 @@ def slope_magnitude(h, valid, dx, dy, mode):
             gx = _axis_gradient(h0, he, hw, dx, mode)
             gy = _axis_gradient(h0, hs, hn, dy, mode)
             s[r * nx + c] = np.sqrt(gx * gx + gy * gy)
-    return s
+
+
+@numba.njit(cache=True, inline="always")
+def _spread_pair_mfd(flux, z, i, h, off, inv_dist, q, qs):
+    """Multiple flow directions at an interior cell ``i``: ``flux[j, 0] += frac·q`` and
+    ``flux[j, 1] += frac·qs`` for the 8 neighbours j, with the fractions of
+    ``unerode_cli.hydro.kernels.flow_fractions`` (000 Eq. 6) computed by the same operations
+    in the same order (bit-identical shares; see ``spread_mfd``)."""
+    s0 = slope_to(z, h, i + off[0], inv_dist[0])
+    s1 = slope_to(z, h, i + off[1], inv_dist[1])
+    s2 = slope_to(z, h, i + off[2], inv_dist[2])
+    s3 = slope_to(z, h, i + off[3], inv_dist[3])
+    s4 = slope_to(z, h, i + off[4], inv_dist[4])
+    s5 = slope_to(z, h, i + off[5], inv_dist[5])
+    s6 = slope_to(z, h, i + off[6], inv_dist[6])
+    s7 = slope_to(z, h, i + off[7], inv_dist[7])
+    total = 0.0 + s0 + s1 + s2 + s3 + s4 + s5 + s6 + s7
+    scale = 1.0 / total if total > 0.0 else 0.0
+    f = s0 * scale
+    flux[i + off[0], 0] += f * q
+    flux[i + off[0], 1] += f * qs
+    f = s1 * scale
+    flux[i + off[1], 0] += f * q
+    flux[i + off[1], 1] += f * qs
+    f = s2 * scale
+    flux[i + off[2], 0] += f * q
+    flux[i + off[2], 1] += f * qs
+    f = s3 * scale
+    flux[i + off[3], 0] += f * q
+    flux[i + off[3], 1] += f * qs
+    f = s4 * scale
+    flux[i + off[4], 0] += f * q
+    flux[i + off[4], 1] += f * qs
+    f = s5 * scale
+    flux[i + off[5], 0] += f * q
+    flux[i + off[5], 1] += f * qs
+    f = s6 * scale
+    flux[i + off[6], 0] += f * q
+    flux[i + off[6], 1] += f * qs
+    f = s7 * scale
+    flux[i + off[7], 0] += f * q
+    flux[i + off[7], 1] += f * qs
 
 
 @numba.njit(cache=True)
@@ -98,17 +155,36 @@ def fluvial_sweep(zf, outlets, order, dx, dy, single, slope, precipitation, upli
         (dh float64[ny*nx] (m), Q float64[ny*nx] (m³/y), Qs float64[ny*nx] (m³/y),
          Σ max(0, E − D)·A, Σ max(0, D − E)·A over free cells and Σ Q̃s over outlets, m³/y).
     """
+    size = zf.size
+    dh = np.zeros(size, dtype=np.float64)
+    # Q and Qs side by side: the sweep reads and writes both at the same cells.
+    flux = np.zeros((size, 2), dtype=np.float64)
+    rates = fluvial_sweep_into(
+        zf, outlets, order, dx, dy, single, slope, precipitation, uplift, k, k_d, m, n, dt, dh, flux
+    )
+    return dh, flux[:, 0], flux[:, 1], rates[0], rates[1], rates[2]
+
+
+@numba.njit(cache=True)
+def fluvial_sweep_into(
+    zf, outlets, order, dx, dy, single, slope, precipitation, uplift, k, k_d, m, n, dt, dh, flux
+):
+    """``fluvial_sweep`` into arrays given by the caller: ``dh`` float64[ny*nx] and ``flux``
+    float64[ny*nx, 2] (Q, Qs), both all 0 on entry. Interior cells spread Q and Qs with
+    ``steepest_of`` / ``_spread_pair_mfd``, the others with ``flow_fractions``: the same
+    shares.
+
+    Returns:
+        (Σ max(0, E − D)·A, Σ max(0, D − E)·A, Σ Q̃s over outlets), m³/y.
+    """
     ny, nx = zf.shape
-    size = ny * nx
     z = zf.ravel()
     out = outlets.ravel()
     off = neighbour_offsets(nx)
     inv_dist = inverse_distances(dx, dy)
     area = dx * dy
+    inv_nx = 1.0 / nx
     frac = np.empty(8, dtype=np.float64)
-    dh = np.zeros(size, dtype=np.float64)
-    # Q and Qs side by side: the sweep reads and writes both at the same cells.
-    flux = np.zeros((size, 2), dtype=np.float64)
     erosion_rate = 0.0
     deposition_rate = 0.0
     outflow_rate = 0.0
@@ -133,9 +209,20 @@ def fluvial_sweep(zf, outlets, order, dx, dy, single, slope, precipitation, upli
         flux[i, 1] = leaving
         erosion_rate += max(net, 0.0) * area
         deposition_rate += max(-net, 0.0) * area
-        interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
-        spread(flux, i, off, frac, (qi, leaving), interior)
-    return dh, flux[:, 0], flux[:, 1], erosion_rate, deposition_rate, outflow_rate
+        r = row_of(i, inv_nx)
+        col = i - r * nx
+        if 0 < r < ny - 1 and 0 < col < nx - 1:
+            if single:
+                best = steepest_of(z, i, z[i], off, inv_dist)
+                if best >= 0:
+                    flux[i + off[best], 0] += qi
+                    flux[i + off[best], 1] += leaving
+            else:
+                _spread_pair_mfd(flux, z, i, z[i], off, inv_dist, qi, leaving)
+        else:
+            interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+            spread(flux, i, off, frac, (qi, leaving), interior)
+    return erosion_rate, deposition_rate, outflow_rate
 
 
 @numba.njit(cache=True)
