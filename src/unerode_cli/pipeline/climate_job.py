@@ -35,6 +35,7 @@ from unerode_cli.pipeline.outputs import Outputs, save
 from unerode_cli.pipeline.parameter_maps import load_on_grid, resolve
 from unerode_cli.pipeline.registry import REGISTRY, build_processes, parse_process_list
 from unerode_cli.pipeline.runner import run
+from unerode_cli.pipeline.yaml_files import read_yaml_mapping
 from unerode_cli.raster.io import read_terrain
 from unerode_cli.raster.paths import atomic_path, check_output
 from unerode_cli.raster.terrain import Terrain
@@ -157,8 +158,11 @@ def _forcing(job: ClimateJob, steps: int, chronology: Series, sea: Series | None
     d18o = chronology if job.chronology_kind == "d18o" else None
     if job.chronology_kind == "sea-level":
         sea = chronology
+
+    def sea_of(ages: np.ndarray) -> np.ndarray:
+        return np.asarray(sea_level(ages, sea, d18o, mapping), dtype=float)
+
     try:
-        sea_of = lambda ages: sea_level(ages, sea, d18o, mapping)  # noqa: E731
         sea_mid, sea_end = sea_of(mid), sea_of(end)
         sea_start = float(sea_of(np.array([job.from_ka]))[0])
         # phases need the trend around each age: classify on a 1 ka grid, read at the middles
@@ -168,11 +172,9 @@ def _forcing(job: ClimateJob, steps: int, chronology: Series, sea: Series | None
         phases_on_grid = classify(grid, sea_of(grid), PhaseThresholds())
     except ValueError as exc:
         raise InputError(f"{exc}") from None
-    nearest = np.clip(np.searchsorted(grid, mid), 0, grid.size - 1)
-    left = np.clip(nearest - 1, 0, grid.size - 1)
-    pick = np.where(np.abs(grid[left] - mid) <= np.abs(grid[nearest] - mid), left, nearest)
-    return Forcing(end, mid, np.asarray(phases_on_grid)[pick], np.asarray(sea_mid, float),
-                   np.asarray(sea_end, float), sea_start)
+    # nearest grid age (1 ka apart), the younger one on ties
+    pick = np.clip(np.ceil(mid - grid[0] - 0.5).astype(np.int64), 0, grid.size - 1)
+    return Forcing(end, mid, np.asarray(phases_on_grid)[pick], sea_mid, sea_end, sea_start)
 
 
 def _fingerprint(job: ClimateJob) -> str:
@@ -214,8 +216,9 @@ def plan(job: ClimateJob) -> PreparedClimateRun:
     mapping = SeaLevelMapping(*job.d18o_mapping) if job.d18o_mapping else DEFAULT_MAPPING
     forcing = _forcing(job, steps, chronology, sea, mapping)
     try:
-        schedule = Schedule.from_mapping(_read_yaml(job.schedule_file)) if job.schedule_file \
-            else Schedule()
+        schedule = Schedule.from_mapping(read_yaml_mapping(
+            job.schedule_file, "the schedule file", "a mapping of phases to parameters",
+        )) if job.schedule_file else Schedule()
     except ValueError as exc:
         raise InputError(f"{job.schedule_file}: {exc}") from None
     given = given_values(None, job.parameter_values, names)
@@ -234,20 +237,6 @@ def plan(job: ClimateJob) -> PreparedClimateRun:
         downstream = downstream_mask(terrain.elevation, job.downstream_below, mask)
     return PreparedClimateRun(job, terrain, names, base, schedule, forcing, nodes, downstream,
                               steps, outputs, chronology, _fingerprint(job))
-
-
-def _read_yaml(path: Path) -> dict[str, Any]:
-    import yaml
-
-    try:
-        document = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise InputError(f"cannot read the schedule file {path}: {exc.strerror}.") from None
-    except yaml.YAMLError:
-        raise InputError(f"the schedule file {path} is not valid YAML.") from None
-    if not isinstance(document, dict):
-        raise InputError(f"the schedule file {path} must be a mapping of phases to parameters.")
-    return document
 
 
 def _step_values(prepared: PreparedClimateRun, k: int) -> tuple[dict[str, Any], dict[str, float]]:

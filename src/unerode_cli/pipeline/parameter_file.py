@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from unerode_cli.errors import InputError
+from unerode_cli.pipeline.yaml_files import read_yaml_mapping
 from unerode_cli.processes.parameters import ParamSpec
 
 
@@ -36,20 +37,8 @@ def read_parameter_file(path: Path, processes: Mapping[str, Sequence[ParamSpec]]
         InputError: unreadable or malformed file, unknown name, or a value that is neither a
             number nor a path.
     """
-    import yaml
-
-    try:
-        document = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise InputError(f"cannot read the parameter file {path}: {exc.strerror}.") from None
-    except yaml.YAMLError as exc:
-        where = getattr(exc, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else ""
-        raise InputError(f"the parameter file {path} is not valid YAML{line}.") from None
-    if document is None:
-        return {}
-    if not isinstance(document, dict):
-        raise InputError(f"the parameter file {path} must be a mapping of parameter names to values.")
+    document = read_yaml_mapping(path, "the parameter file",
+                                 "a mapping of parameter names to values")
     every = _lookup([spec for specs in processes.values() for spec in specs])
     values: dict[str, str] = {}
     for key, value in document.items():

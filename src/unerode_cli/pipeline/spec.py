@@ -57,10 +57,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from unerode_cli.errors import InputError
+from unerode_cli.pipeline.yaml_files import read_yaml_mapping
 
 Scalar = str | int | float | bool
 NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$"
@@ -135,16 +135,8 @@ def load_spec(path: Path) -> PipelineSpec:
     """Read and check the structure of a YAML spec (one-sentence InputError when wrong)."""
     if not path.is_file():
         raise InputError(f"pipeline spec {path} does not exist.")
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" (line {mark.line + 1})" if mark is not None else ""
-        raise InputError(f"pipeline spec {path} is not valid YAML{where}.") from None
-    except UnicodeDecodeError:
-        raise InputError(f"pipeline spec {path} is not a UTF-8 text file.") from None
-    if not isinstance(raw, dict):
-        raise InputError(f"pipeline spec {path} must be a YAML mapping with version and steps.")
+    raw = read_yaml_mapping(path, "pipeline spec", "a YAML mapping with version and steps",
+                            allow_empty=False)
     try:
         return PipelineSpec.model_validate(raw)
     except ValidationError as exc:

@@ -110,7 +110,9 @@ class FluvialChange:
     budget: MassBudget
 
 
-def _slope_mode(dt: float, scheme: str) -> int:
+def slope_mode(dt: float, scheme: str) -> int:
+    """Kernel slope mode of a step: downstream (000 Eq. 9) forward; backward the limited
+    (Eq. 12) or upwind (Eq. 10) slope, per ``scheme``."""
     from unerode_cli.processes import fluvial_kernels as fk
 
     if scheme not in SCHEMES:
@@ -152,7 +154,7 @@ def step(
     from unerode_cli.processes import fluvial_kernels as fk
 
     params.validate(grid)
-    mode = _slope_mode(dt, scheme)
+    mode = slope_mode(dt, scheme)
     if routing is None:
         routing = route(elevation, grid, outlets, method)
     elif not np.array_equal(routing.outlets, outlets & grid.valid):

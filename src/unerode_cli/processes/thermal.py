@@ -30,6 +30,7 @@ import numpy as np
 
 from unerode_cli.grid import Grid
 from unerode_cli.processes.budget import MassBudget
+from unerode_cli.processes.fluvial import slope_mode
 from unerode_cli.processes.parameters import ParamSpec, check_fields
 
 if TYPE_CHECKING:
@@ -176,12 +177,10 @@ def _slopes(h: np.ndarray, grid: Grid, dt: float, scheme: str) -> tuple[np.ndarr
     downstream slope (000 Eq. 9); backward the first is limited (Eq. 12) or upwind (Eq. 10)."""
     from unerode_cli.processes import fluvial_kernels as fk
 
+    mode = slope_mode(dt, scheme)
     down = fk.slope_magnitude(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM)
-    if dt >= 0:
+    if mode == fk.DOWNSTREAM:
         return down, down
-    mode = {"limiter": fk.LIMITED, "upwind": fk.UPWIND}.get(scheme)
-    if mode is None:
-        raise ValueError(f"scheme must be limiter or upwind, got {scheme!r}")
     return fk.slope_magnitude(h, grid.valid, grid.dx, grid.dy, mode), down
 
 
