@@ -9,6 +9,7 @@ import typer
 
 from unerode_cli import __version__
 from unerode_cli.cli.climate_run import climate_run
+from unerode_cli.cli.compare_terraces import compare_terraces
 from unerode_cli.cli.convert import convert
 from unerode_cli.cli.erode import erode, unerode
 from unerode_cli.cli.flow import flow
@@ -29,6 +30,7 @@ app = typer.Typer(
 for command in (info, convert, preview, synth, flow, erode, unerode):
     app.command()(command)
 app.command("climate-run")(climate_run)
+app.command("compare-terraces")(compare_terraces)
 app.add_typer(pipeline_app, name="pipeline")
 
 

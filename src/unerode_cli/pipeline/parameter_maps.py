@@ -22,6 +22,12 @@ def same_crs(a_wkt: str, b_wkt: str) -> bool:
 
 def load_on_grid(path: Path, terrain: Terrain, what: str) -> np.ndarray:
     """Read a raster that must lie on ``terrain``'s grid (shape, transform and CRS checked)."""
+    return read_on_grid(path, terrain, what).elevation
+
+
+def read_on_grid(path: Path, terrain: Terrain, what: str) -> Terrain:
+    """Read a raster, with its tags, that must lie on ``terrain``'s grid (shape, transform and
+    CRS checked; ``what`` names it in messages)."""
     layer = read_terrain(path)
     if layer.shape != terrain.shape:
         raise InputError(
@@ -32,7 +38,7 @@ def load_on_grid(path: Path, terrain: Terrain, what: str) -> np.ndarray:
         raise InputError(f"{what} raster {path} is not aligned with the DEM (different transform).")
     if not same_crs(layer.crs_wkt, terrain.crs_wkt):
         raise InputError(f"{what} raster {path} is not in the DEM's CRS.")
-    return layer.elevation
+    return layer
 
 
 def resolve(spec: ParamSpec, value: str | float, terrain: Terrain) -> float | np.ndarray:
