@@ -11,8 +11,10 @@ from unerode_cli import __version__
 from unerode_cli.cli.climate_run import climate_run
 from unerode_cli.cli.compare_terraces import compare_terraces
 from unerode_cli.cli.convert import convert
+from unerode_cli.cli.diff import diff
 from unerode_cli.cli.erode import erode, unerode
 from unerode_cli.cli.flow import flow
+from unerode_cli.cli.hypsometry import hypsometry
 from unerode_cli.cli.info import info
 from unerode_cli.cli.pipeline_cmd import pipeline_app
 from unerode_cli.cli.preview import preview
@@ -27,7 +29,7 @@ app = typer.Typer(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 
-for command in (info, convert, preview, synth, flow, erode, unerode):
+for command in (info, convert, preview, synth, flow, erode, unerode, diff, hypsometry):
     app.command()(command)
 app.command("climate-run")(climate_run)
 app.command("compare-terraces")(compare_terraces)

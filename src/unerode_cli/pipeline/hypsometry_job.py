@@ -1,0 +1,48 @@
+"""`hypsometry`: elevation histograms of DEMs as a CSV table and a PNG (001 Fig. 15)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from unerode_cli.analysis.hypsometry import Hypsometry, hypsometry
+from unerode_cli.errors import InputError
+from unerode_cli.raster.io import read_terrain
+from unerode_cli.raster.paths import atomic_path, check_output
+from unerode_cli.viz.hypsometry_plot import save_hypsometry_plot
+
+CSV_COLUMNS = ["dem", "bin", "lower", "upper", "centre", "area_fraction", "area_above_fraction"]
+
+
+def compute(dems: list[Path], bins: int, normalise: str) -> list[tuple[Path, Hypsometry]]:
+    """The hypsometry of each DEM (InputError on a bad DEM or setting)."""
+    results = []
+    for dem in dems:
+        try:
+            results.append((dem, hypsometry(read_terrain(dem).elevation, bins, normalise)))
+        except ValueError as exc:
+            raise InputError(f"{dem}: {exc}.") from None
+    return results
+
+
+def write(results: list[tuple[Path, Hypsometry]], csv_path: Path | None, plot: Path | None,
+          overwrite: bool) -> None:
+    """Write the long-form CSV (one row per DEM and bin) and the plot, atomically."""
+    inputs = tuple(dem for dem, _ in results)
+    for path in (csv_path, plot):
+        if path is not None:
+            check_output(path, overwrite, inputs)
+    if plot is not None and plot.suffix.lower() != ".png":
+        raise InputError(f"the plot must be a .png file, got {plot.name}.")
+    if csv_path is not None:
+        with atomic_path(csv_path) as tmp, tmp.open("w", newline="", encoding="utf-8") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(CSV_COLUMNS)
+            for dem, result in results:
+                edges, centres, above = result.edges, result.centres, result.area_above
+                for k, fraction in enumerate(result.fraction):
+                    writer.writerow([dem.name, k, edges[k], edges[k + 1], centres[k], fraction, above[k]])
+    if plot is not None:
+        curves = [(dem.name, result.centres, result.fraction) for dem, result in results]
+        with atomic_path(plot) as tmp:
+            save_hypsometry_plot(tmp, curves, results[0][1].normalise, "hypsometry")
