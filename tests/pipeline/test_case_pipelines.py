@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
+import numpy as np
 import pytest
-from tests.conftest import SHARED_DATA, run_cli
+from tests.conftest import SHARED_DATA, run_cli, write_geotiff
 
 PIPELINES = Path(__file__).resolve().parents[2] / "pipelines"
 
@@ -19,3 +21,37 @@ def test_last_glacial_cycle_spec_validates() -> None:
     assert [line.split(":")[0].split()[-1] for line in lines] == ["past", "lgm-preview",
                                                                   "lgm-rivers"]
     assert "--to 120" in lines[0] and "--snapshots 12,20,60,120" in lines[0]
+
+
+@pytest.mark.skipif(not (SHARED_DATA / "lr04").is_dir(), reason="needs ../shared/data")
+@pytest.mark.parametrize(("spec", "last"), [("tautavel_terraces", "--observations"),
+                                            ("tet_incision", "--incision")])
+def test_case_study_specs_validate(spec: str, last: str) -> None:
+    (PIPELINES / "runs" / spec).mkdir(parents=True, exist_ok=True)
+    result = run_cli("pipeline", "run", PIPELINES / f"{spec}.yaml", "--dry-run")
+    assert result.returncode == 0, result.stderr
+    lines = [line for line in result.stdout.splitlines() if line.startswith("run")]
+    assert [line.split(":")[0].split()[-1] for line in lines] == ["past", "compare"]
+    assert "compare-terraces" in lines[1] and last in lines[1] and "--auto-river" in lines[1]
+
+
+@pytest.mark.skipif(not (SHARED_DATA / "lr04").is_dir(), reason="needs ../shared/data")
+def test_tautavel_pipeline_runs_on_any_dem(tmp_path: Path) -> None:
+    """The whole case study on a small V-valley given as a variable: climate-run back to
+    814 ka, then compare-terraces against the three dated terraces."""
+    rows, cols = np.mgrid[0:24, 0:20].astype(float)
+    valley = 2.0 + 4.0 * rows + 3.0 * np.abs(cols - 10.0)   # drains north to the sea
+    dem = write_geotiff(tmp_path / "valley.tif", valley.astype(np.float32))
+    spec = tmp_path / "tautavel.yaml"
+    text = (PIPELINES / "tautavel_terraces.yaml").read_text()
+    spec.write_text(text.replace("workdir: runs/tautavel_terraces", f"workdir: {tmp_path / 'run'}")
+                    .replace("../../observations", str(PIPELINES / "observations"))
+                    .replace("../../../../shared/data", str(SHARED_DATA)))
+    (tmp_path / "run").mkdir()
+    result = run_cli("pipeline", "run", spec, "--var", f"dem={dem}", "--var", "dt=2000")
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((tmp_path / "run" / "report" / "summary.json").read_text())
+    assert [row["age_ka"] for row in summary["terraces"]["rows"]] == [12.0, 60.0, 814.0]
+    assert [s["age_ka"] for s in summary["snapshots"]] == [12.0, 60.0, 120.0, 240.0, 420.0, 600.0, 814.0]
+    assert np.isfinite(summary["terraces"]["rmse_m"])
+    assert (tmp_path / "run" / "report" / "profiles.png").stat().st_size > 20_000

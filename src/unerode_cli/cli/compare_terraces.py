@@ -41,7 +41,7 @@ def _expanded(entries: list[str]) -> tuple[Path, ...]:
 def compare_terraces(
     present: Annotated[Path, typer.Option("--present", help="Today's DEM, the reference of the heights.", rich_help_panel="Inputs")],
     snapshots: Annotated[list[str], typer.Option("--snapshots", help="Snapshot raster, folder of snapshots, or quoted glob ('runs/past_*ka.tif'); repeatable. Ages come from climate-run's UNERODE_AGE_KA tag, else a name ending in _<age>ka.", rich_help_panel="Inputs")],
-    out: Annotated[Path, typer.Option("--out", help="Report folder: terraces.csv, profiles.csv, summary.json, profiles.png (+ incision.csv, incision.png).", rich_help_panel="Inputs")],
+    out: Annotated[Path, typer.Option("--out", help="Write the report in this folder: terraces.csv, profiles.csv, summary.json, profiles.png (+ incision.csv, incision.png).", rich_help_panel="Inputs")],
     observations: Annotated[Path | None, typer.Option("--observations", help="CSV of dated terraces: age_ka, height_above_river_m, [uncertainty_m], [x,y | chainage_m], [name].", rich_help_panel="Inputs")] = None,
     incision: Annotated[Path | None, typer.Option("--incision", help="CSV of incision rates: from_ka, to_ka, rate_mm_per_ka, [uncertainty_mm_per_ka], [name].", rich_help_panel="Inputs")] = None,
     river: Annotated[Path | None, typer.Option("--river", help="River line in the DEM's CRS: GeoJSON or WKT LINESTRING (either direction).", rich_help_panel="River")] = None,

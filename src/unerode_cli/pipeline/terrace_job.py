@@ -213,7 +213,10 @@ def _history(job: TerraceJob, present: Terrain, river: RiverPath) -> tuple[River
         if age is None:
             raise InputError(f"snapshot {path} has no age: it lacks the {AGE_TAG} tag of climate-run "
                              "and its name does not end in _<age>ka.")
-        beds.append((age, bed_profile(layer.elevation, river, present.dx, present.dy, job.search_radius)))
+        bed = bed_profile(layer.elevation, river, present.dx, present.dy, job.search_radius)
+        if any(age == seen and np.array_equal(bed, other, equal_nan=True) for seen, other in beds):
+            continue  # climate-run's final output repeats the snapshot at its age
+        beds.append((age, bed))
         listed.append({"path": str(path), "age_ka": age})
     present_bed = bed_profile(present.elevation, river, present.dx, present.dy, job.search_radius)
     if not np.isfinite(present_bed).any():
