@@ -269,14 +269,28 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
     signed_dt = (-1.0 if job.backward else 1.0) * job.dt
     last = prepared.steps if job.max_steps is None else min(prepared.steps, first + job.max_steps)
     snapshots = {round(a, 9) for a in job.snapshots_ka}
+    noted: set[str] = set()
+
+    def note_once(message: str) -> None:
+        """Pass a sub-stepping note on at its first climate step only (one per process)."""
+        key = message.split(" (", 1)[0]
+        if on_note is not None and key not in noted:
+            noted.add(key)
+            on_note(f"{message[:-1]}, first at {forcing.end_ka[k]:g} ka; no further note.")
+
     for k in range(first, last):
         values, scheduled = _step_values(prepared, k)
         sea_end = float(forcing.sea_end[k])
         h[prepared.boundary_nodes] = h0_nodes + (sea_end - forcing.sea_start)
         before = h.copy()
         h, report = run(h, _processes(prepared, values, sea_end), signed_dt, 1,
-                        job.allow_substeps, None, on_note)
+                        job.allow_substeps, None, note_once)
         change = np.abs(h - before)[~terrain.nodata_mask]
+        if not np.isfinite(change).all():
+            raise RuntimeError(
+                f"the run diverged at {forcing.end_ka[k]:g} ka (elevations are no longer finite); "
+                "lower --dt or the rates (K, k_th), or drop a process that runs away backward"
+            )
         rows.append({"age_ka": float(forcing.end_ka[k]), "phase": str(forcing.phase[k]),
                      "sea_level_m": sea_end, **scheduled,
                      "eroded_m3": sum(b.eroded for b in report.budgets.values()),

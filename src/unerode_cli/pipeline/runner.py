@@ -109,8 +109,9 @@ def run(
                     f"(stable: ≤ {abs(dt) / n_sub:.4g} years); lower --dt or allow sub-steps."
                 )
             if n_sub > 1 and process.name not in noted and on_note is not None:
+                at = f" at step {i}" if steps > 1 else ""
                 on_note(f"note: {process.name} is sub-stepped ({n_sub} sub-steps of "
-                        f"{abs(dt) / n_sub:.4g} years at step {i}) to stay stable (CFL).")
+                        f"{abs(dt) / n_sub:.4g} years{at}) to stay stable (CFL).")
                 noted.add(process.name)
             for _ in range(n_sub):
                 change = process.advance(h, dt / n_sub)
