@@ -1,0 +1,17 @@
+"""Glaciers (001 §3–6): mass balance, ice flow (Blatter–Pattyn and SIA), ice transport and
+glacial erosion.
+
+Modules, one job each:
+
+- ``massbalance``: M = min(p_max, β(s − E)) (001 Eq. 2);
+- ``lattice``: the terrain-following lattice of N layers (001 §4.2) and its degrees of freedom;
+- ``blatter``: horizontal ice velocities minimising the Blatter–Pattyn energy (001 Eq. 7),
+  with the numba energy and analytic gradient in ``blatter_kernels``;
+- ``sia``: the shallow-ice approximation, the fast baseline;
+- ``transport``: ∂H/∂t = M − ∇·(H ū) (001 Eq. 1), limited upwind fluxes in ``transport_kernels``;
+- ``erosion``: abrasion and quarrying from the sliding velocity (001 §6.1).
+
+Conventions: x along columns (east), y along rows (increasing row index, i.e. south on a
+north-up raster); velocity components (u, v) follow the same axes. Lengths in metres, time in
+years, velocities in m/y (= m/a), stresses in Pa. Importing this package does not load numba.
+"""

@@ -1,0 +1,289 @@
+"""Numba kernels of the Blatter–Pattyn energy (001 Eq. 7) and its analytic gradient.
+
+Discretisation (001 §4.2 and Appendix A): horizontal velocities (u, v) (m/y) live on the nodes
+of the terrain-following lattice ζ[k, j, i] (``lattice``); every lattice cell, a hexahedron
+with vertical edges between columns (i, i+1) × (j, j+1) and levels (k, k+1), is one linear
+(trilinear) finite element evaluated at its centre (one-point quadrature), with the averaging
+(a) and difference (d) operators of 001 Appendix A:
+
+    c_t   = a_x a_y d_z ζ                       cell thickness (m)
+    V     = dx·dy·c_t                           cell volume (m³)
+    u_c   = a_x a_y a_z u                       velocity at the centre
+    ∂z u  = (a_x a_y d_z u) / c_t
+    ∂x u  = (d_x a_y a_z u)/dx − (d_x a_y a_z ζ)/dx · ∂z u
+    ∂y u  = (a_x d_y a_z u)/dy − (a_x d_y a_z ζ)/dy · ∂z u
+
+The horizontal gradients are the chain rule of the terrain-following coordinates, i.e. the
+exact gradient of the isoparametric trilinear element at its centre. (001 Eq. 9–10 as
+printed do not vanish for a uniform velocity, so they are not used verbatim. The volume is the
+exact volume dx·dy·c_t of the cell rather than 001's inclined face area f_a times c_t.)
+
+Energy (001 Eq. 7), velocities in m/y and stresses in Pa, so in Pa·m³/y:
+
+    E = Σ_cells V·[ (B/p)·(|D|² + ε²)^(p/2) + ρg·(∂x s·u_c + ∂y s·v_c) ]
+      + Σ_basal faces dx·dy·(C/σ)·(|u_b|_M² + u_ε²)^(σ/2)
+
+with the first-order strain-rate tensor D (001 §4.1; D_zz = −D_xx − D_yy)
+
+    |D|² = D:D = 2·(D_xx² + D_yy² + D_xx·D_yy + D_xy² + D_xz² + D_yz²),
+    D_xx = ∂x u, D_yy = ∂y v, D_xy = (∂y u + ∂x v)/2, D_xz = ∂z u/2, D_yz = ∂z v/2,
+
+∂x s, ∂y s the surface gradient at the cell centre, u_b = a_x a_y u at the bed and the bed-
+tangential norm |u_b|_M² = u_b² + v_b² + (u_b·∂x b + v_b·∂y b)². ε (1/y) and u_ε (m/y) are
+small regularisations that make the energy twice differentiable at zero strain rate and
+zero sliding. ``tilt`` = tan(background slope) is a uniform inclination along +x: the true
+elevations are ζ − x·tilt, which enters ∂x ζ, ∂x s and ∂x b.
+
+Domain edges: ``periodic`` wraps cells around both axes (a grid of nx columns has nx cells
+along x), otherwise the edge faces are stress free (nx − 1 cells).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, inline="always")
+def cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt):
+    """Lattice cell between levels k and k+1 over columns (j, i)..(j1, i1): its mean thickness
+    c_t (m) and the slopes a_x (tilt included), a_y of its mid-surface (001 Appendix A)."""
+    zb00, zb01, zb10, zb11 = zeta[k, j, i], zeta[k, j, i1], zeta[k, j1, i], zeta[k, j1, i1]
+    zt00, zt01 = zeta[k + 1, j, i], zeta[k + 1, j, i1]
+    zt10, zt11 = zeta[k + 1, j1, i], zeta[k + 1, j1, i1]
+    ct = 0.25 * ((zt00 + zt01 + zt10 + zt11) - (zb00 + zb01 + zb10 + zb11))
+    ax = (0.25 * ((zb01 - zb00) + (zb11 - zb10) + (zt01 - zt00) + (zt11 - zt10)) - dx * tilt) / dx
+    ay = 0.25 * ((zb10 - zb00) + (zb11 - zb01) + (zt10 - zt00) + (zt11 - zt01)) / dy
+    return ct, ax, ay
+
+
+@numba.njit(cache=True, inline="always")
+def terrain_following_gradient(f, k, j, i, j1, i1, dx, dy, ct, ax, ay):
+    """(∂x f, ∂y f, ∂z f) of a nodal field f at the centre of a lattice cell, by the chain rule
+    of the terrain-following coordinates (∂x = ∂ξ − a_x ∂z, ∂y = ∂η − a_y ∂z)."""
+    fz = 0.25 * ((f[k + 1, j, i] + f[k + 1, j, i1] + f[k + 1, j1, i] + f[k + 1, j1, i1])
+                 - (f[k, j, i] + f[k, j, i1] + f[k, j1, i] + f[k, j1, i1])) / ct
+    fx = 0.25 * ((f[k, j, i1] - f[k, j, i]) + (f[k, j1, i1] - f[k, j1, i])
+                 + (f[k + 1, j, i1] - f[k + 1, j, i]) + (f[k + 1, j1, i1] - f[k + 1, j1, i])) / dx
+    fy = 0.25 * ((f[k, j1, i] - f[k, j, i]) + (f[k, j1, i1] - f[k, j, i1])
+                 + (f[k + 1, j1, i] - f[k + 1, j, i]) + (f[k + 1, j1, i1] - f[k + 1, j, i1])) / dy
+    return fx - ax * fz, fy - ay * fz, fz
+
+
+@numba.njit(cache=True, inline="always")
+def basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt):
+    """A basal face's bed slopes (b_x with tilt, b_y), mean basal velocity (u_b, v_b, m/y) and
+    its component along the bed normal's horizontal part t = u_b b_x + v_b b_y."""
+    z00, z01, z10, z11 = zeta[0, j, i], zeta[0, j, i1], zeta[0, j1, i], zeta[0, j1, i1]
+    bx = 0.5 * ((z01 - z00) + (z11 - z10)) / dx - tilt
+    by = 0.5 * ((z10 - z00) + (z11 - z01)) / dy
+    ub = 0.25 * (u[0, j, i] + u[0, j, i1] + u[0, j1, i] + u[0, j1, i1])
+    vb = 0.25 * (v[0, j, i] + v[0, j, i1] + v[0, j1, i] + v[0, j1, i1])
+    return bx, by, ub, vb, ub * bx + vb * by
+
+
+@numba.njit(cache=True)
+def energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic):
+    """Blatter–Pattyn energy E (Pa·m³/y) and its gradient with respect to every node velocity.
+
+    Args:
+        u, v: float64[N+1, ny, nx] velocities along x and y (m/y).
+        zeta: float64[N+1, ny, nx] node elevations without the background tilt (m).
+        c_face: float64[ncy, ncx] sliding coefficient C of each basal face (Pa·(y/m)^(σ−1)),
+            0 where there is no sliding friction (no ice, or a frozen face whose nodes are
+            held at zero).
+        dx, dy: cell sizes (m).
+        tilt: tan of the background slope along +x.
+        b_visc: B of 001 Eq. 4 (Pa·y^(1/n)) for the Frobenius norm |D|.
+        p: 1 + 1/n; sigma: sliding exponent σ; rho_g: ρ·g (Pa/m).
+        eps2: ε² (1/y²); ureg2: u_ε² (m²/y²).
+        periodic: wrap the lattice around both axes.
+
+    Returns:
+        (E, ∂E/∂u, ∂E/∂v), the gradients float64[N+1, ny, nx] in Pa·m³/y per m/y.
+    """
+    nz, ny, nx = u.shape
+    ncx = nx if periodic else nx - 1
+    ncy = ny if periodic else ny - 1
+    gu = np.zeros_like(u)
+    gv = np.zeros_like(v)
+    area = dx * dy
+    energy = 0.0
+    half_p = 0.5 * p
+    top = nz - 1
+    for k in range(nz - 1):
+        for j in range(ncy):
+            j1 = j + 1 if j + 1 < ny else 0
+            for i in range(ncx):
+                i1 = i + 1 if i + 1 < nx else 0
+                ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
+                if ct <= 0.0:
+                    continue
+                s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
+                sx = 0.5 * ((s01 - s00) + (s11 - s10)) / dx - tilt
+                sy = 0.5 * ((s10 - s00) + (s11 - s01)) / dy
+
+                ub00, ub01, ub10, ub11 = u[k, j, i], u[k, j, i1], u[k, j1, i], u[k, j1, i1]
+                ut00, ut01, ut10, ut11 = u[k + 1, j, i], u[k + 1, j, i1], u[k + 1, j1, i], u[k + 1, j1, i1]
+                vb00, vb01, vb10, vb11 = v[k, j, i], v[k, j, i1], v[k, j1, i], v[k, j1, i1]
+                vt00, vt01, vt10, vt11 = v[k + 1, j, i], v[k + 1, j, i1], v[k + 1, j1, i], v[k + 1, j1, i1]
+
+                uz = 0.25 * ((ut00 + ut01 + ut10 + ut11) - (ub00 + ub01 + ub10 + ub11)) / ct
+                vz = 0.25 * ((vt00 + vt01 + vt10 + vt11) - (vb00 + vb01 + vb10 + vb11)) / ct
+                ux = 0.25 * ((ub01 - ub00) + (ub11 - ub10) + (ut01 - ut00) + (ut11 - ut10)) / dx - ax * uz
+                vx = 0.25 * ((vb01 - vb00) + (vb11 - vb10) + (vt01 - vt00) + (vt11 - vt10)) / dx - ax * vz
+                uy = 0.25 * ((ub10 - ub00) + (ub11 - ub01) + (ut10 - ut00) + (ut11 - ut01)) / dy - ay * uz
+                vy = 0.25 * ((vb10 - vb00) + (vb11 - vb01) + (vt10 - vt00) + (vt11 - vt01)) / dy - ay * vz
+                uc = 0.125 * (ub00 + ub01 + ub10 + ub11 + ut00 + ut01 + ut10 + ut11)
+                vc = 0.125 * (vb00 + vb01 + vb10 + vb11 + vt00 + vt01 + vt10 + vt11)
+
+                dxy = 0.5 * (uy + vx)
+                d2 = 2.0 * (ux * ux + vy * vy + ux * vy + dxy * dxy + 0.25 * (uz * uz + vz * vz)) + eps2
+                vol = area * ct
+                energy += vol * (b_visc / p * d2**half_p + rho_g * (sx * uc + sy * vc))
+
+                w = vol * 0.5 * b_visc * d2 ** (half_p - 1.0)  # ∂E/∂|D|²
+                g_ux = w * 2.0 * (2.0 * ux + vy)
+                g_vy = w * 2.0 * (2.0 * vy + ux)
+                g_uy = w * 2.0 * dxy
+                g_vx = g_uy
+                g_uz = w * uz - ax * g_ux - ay * g_uy
+                g_vz = w * vz - ax * g_vx - ay * g_vy
+                # per-corner weights: ±1/(4dx) along x, ±1/(4dy) along y, ±1/(4c_t) along z, 1/8 mean
+                cxu, cyu, czu, c0u = g_ux / (4 * dx), g_uy / (4 * dy), g_uz / (4 * ct), vol * rho_g * sx / 8
+                cxv, cyv, czv, c0v = g_vx / (4 * dx), g_vy / (4 * dy), g_vz / (4 * ct), vol * rho_g * sy / 8
+                for c in range(2):
+                    kk = k + c
+                    sz = 2 * c - 1
+                    gu[kk, j, i] += c0u - cxu - cyu + sz * czu
+                    gu[kk, j, i1] += c0u + cxu - cyu + sz * czu
+                    gu[kk, j1, i] += c0u - cxu + cyu + sz * czu
+                    gu[kk, j1, i1] += c0u + cxu + cyu + sz * czu
+                    gv[kk, j, i] += c0v - cxv - cyv + sz * czv
+                    gv[kk, j, i1] += c0v + cxv - cyv + sz * czv
+                    gv[kk, j1, i] += c0v - cxv + cyv + sz * czv
+                    gv[kk, j1, i1] += c0v + cxv + cyv + sz * czv
+
+    half_s = 0.5 * sigma
+    for j in range(ncy):
+        j1 = j + 1 if j + 1 < ny else 0
+        for i in range(ncx):
+            cf = c_face[j, i]
+            if cf <= 0.0:
+                continue
+            i1 = i + 1 if i + 1 < nx else 0
+            bx, by, ub, vb, t = basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt)
+            m2 = ub * ub + vb * vb + t * t + ureg2
+            energy += area * cf / sigma * m2**half_s
+            ws = area * cf * 0.5 * m2 ** (half_s - 1.0)  # ∂E/∂|u_b|_M²
+            gub = 0.25 * ws * 2.0 * (ub + t * bx)
+            gvb = 0.25 * ws * 2.0 * (vb + t * by)
+            gu[0, j, i] += gub
+            gu[0, j, i1] += gub
+            gu[0, j1, i] += gub
+            gu[0, j1, i1] += gub
+            gv[0, j, i] += gvb
+            gv[0, j, i1] += gvb
+            gv[0, j1, i] += gvb
+            gv[0, j1, i1] += gvb
+    return energy, gu, gv
+
+
+@numba.njit(cache=True)
+def expand(x, dof):
+    """Node velocities (u, v), float64[N+1, ny, nx] each, from the unknowns x = [u_dof, v_dof]
+    (m/y); nodes with dof −1 are held at zero."""
+    n = x.size // 2
+    u = np.zeros(dof.shape)
+    v = np.zeros(dof.shape)
+    uf = u.reshape(dof.size)
+    vf = v.reshape(dof.size)
+    df = dof.reshape(dof.size)
+    for idx in range(df.size):
+        d = df[idx]
+        if d >= 0:
+            uf[idx] = x[d]
+            vf[idx] = x[n + d]
+    return u, v
+
+
+@numba.njit(cache=True)
+def restrict(gu, gv, dof, n):
+    """Gradient with respect to the unknowns: the sum of the node gradients sharing each one."""
+    g = np.zeros(2 * n)
+    guf = gu.reshape(dof.size)
+    gvf = gv.reshape(dof.size)
+    df = dof.reshape(dof.size)
+    for idx in range(df.size):
+        d = df[idx]
+        if d >= 0:
+            g[d] += guf[idx]
+            g[n + d] += gvf[idx]
+    return g
+
+
+@numba.njit(cache=True)
+def objective(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic):
+    """Energy (Pa·m³/y) and its gradient with respect to the unknowns x = [u_dof, v_dof]."""
+    u, v = expand(x, dof)
+    energy, gu, gv = energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g,
+                                     eps2, ureg2, periodic)
+    return energy, restrict(gu, gv, dof, x.size // 2)
+
+
+@numba.njit(cache=True)
+def picard_diagonal(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, ureg2, periodic):
+    """Diagonal of the Picard (frozen-viscosity) Hessian of E with respect to the unknowns.
+
+    Each cell adds w·(4α_x² + α_y² + α_z²) to the u unknown of each corner (x ↔ y for v), with
+    w = ∂E/∂|D|² at the current velocities and α_x, α_y, α_z the corner's weights in ∂x u,
+    ∂y u, ∂z u; each basal face adds w_s·2(1 + ∂x b²)/16 (w_s = ∂E/∂|u_b|_M²). ``eps2`` and
+    ``ureg2`` here are floors of |D|² and |u_b|_M² (they bound w and w_s). Used to scale the
+    unknowns (Jacobi preconditioning of L-BFGS).
+    """
+    u, v = expand(x, dof)
+    nz, ny, nx = u.shape
+    ncx = nx if periodic else nx - 1
+    ncy = ny if periodic else ny - 1
+    du = np.zeros_like(u)
+    dv = np.zeros_like(v)
+    area = dx * dy
+    for k in range(nz - 1):
+        for j in range(ncy):
+            j1 = j + 1 if j + 1 < ny else 0
+            for i in range(ncx):
+                i1 = i + 1 if i + 1 < nx else 0
+                ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
+                if ct <= 0.0:
+                    continue
+                ux, uy, uz = terrain_following_gradient(u, k, j, i, j1, i1, dx, dy, ct, ax, ay)
+                vx, vy, vz = terrain_following_gradient(v, k, j, i, j1, i1, dx, dy, ct, ax, ay)
+                dxy = 0.5 * (uy + vx)
+                d2 = 2.0 * (ux * ux + vy * vy + ux * vy + dxy * dxy + 0.25 * (uz * uz + vz * vz))
+                w = area * ct * 0.5 * b_visc * max(d2, eps2) ** (0.5 * p - 1.0)
+                for c in range(2):
+                    az = (2 * c - 1) / (4.0 * ct)
+                    for bb in range(2):
+                        jj = j1 if bb else j
+                        for a in range(2):
+                            ii = i1 if a else i
+                            alx = (2 * a - 1) / (4.0 * dx) - ax * az
+                            aly = (2 * bb - 1) / (4.0 * dy) - ay * az
+                            du[k + c, jj, ii] += w * (4.0 * alx * alx + aly * aly + az * az)
+                            dv[k + c, jj, ii] += w * (alx * alx + 4.0 * aly * aly + az * az)
+    for j in range(ncy):
+        j1 = j + 1 if j + 1 < ny else 0
+        for i in range(ncx):
+            cf = c_face[j, i]
+            if cf <= 0.0:
+                continue
+            i1 = i + 1 if i + 1 < nx else 0
+            bx, by, ub, vb, t = basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt)
+            ws = area * cf * 0.5 * max(ub * ub + vb * vb + t * t, ureg2) ** (0.5 * sigma - 1.0)
+            for bb in range(2):
+                jj = j1 if bb else j
+                for a in range(2):
+                    ii = i1 if a else i
+                    du[0, jj, ii] += ws * 2.0 * (1.0 + bx * bx) / 16.0
+                    dv[0, jj, ii] += ws * 2.0 * (1.0 + by * by) / 16.0
+    return restrict(du, dv, dof, x.size // 2)

@@ -1,0 +1,95 @@
+"""Glacial erosion of the bed by the sliding ice (001 §6.1), rates in m/y (≤ 0).
+
+    abrasion:  ∂z/∂t = −k_e·|u_s|^l                                  (001 §6.1, Herman et al. 2015)
+    quarrying: ∂z/∂t = −k_q·|u_s|·Q(u_s, ∇z)                         (001 §6.1, Egholm et al. 2012)
+    Q = ½·(erf(−(u_s·∇z) / (0.4·|u_s|)) + 1)
+
+u_s: basal sliding velocity (m/y), from the bottom level of the flow lattice
+(``FlowSolution.basal_velocity``). Q → 1 where the ice slides down a bed slope steeper than
+~0.4 (lee sides), ½ on flat beds, → 0 up an adverse slope. As 001 says, ∇z is taken
+"downward in the x and y directions": along each axis, the one-sided difference towards the
+lower of the two neighbours (0 in a local minimum along that axis). Units: k_e in
+m^(1−l)·y^(l−1), k_q dimensionless, so both rates are in m/y.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from unerode_cli.grid import Grid
+from unerode_cli.processes.parameters import ParamSpec
+
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("k_e", "m^(1-l)·y^(l-1)", 1.3e-7, "abrasion coefficient k_e (001 §6.1; 001 Table 1: "
+              "1.3e-7 to 1.1e-6)", minimum=0.0, raster=True),
+    ParamSpec("abrasion_exponent", "1", 2.02, "abrasion exponent l (001 Table 1: 2.02)", minimum=0.0,
+              symbol="l"),
+    ParamSpec("k_q", "1", 3.2e-5, "quarrying coefficient k_q (001 §6.1; 001 Table 1: 3.2e-5 to 2.6e-4)",
+              minimum=0.0, raster=True),
+)
+
+
+def downward_gradient(z: np.ndarray, grid: Grid, boundary: str = "open") -> tuple[np.ndarray, np.ndarray]:
+    """(∂z/∂x, ∂z/∂y) (m/m) taken towards the lower neighbour along each axis (001 §6.1, §6.2).
+
+    Along x: if the steeper descent is towards i+1, (z[i+1] − z[i])/dx, if towards i−1,
+    (z[i] − z[i−1])/dx, and 0 where both neighbours are higher. ``boundary``: ``"periodic"``
+    wraps; ``"open"`` uses the one neighbour at an edge.
+    """
+    z = np.asarray(z, dtype=np.float64)
+    out = []
+    for axis, step in ((1, grid.dx), (0, grid.dy)):
+        if boundary == "periodic":
+            fwd = np.roll(z, -1, axis=axis) - z
+            bwd = z - np.roll(z, 1, axis=axis)
+        elif boundary == "open":
+            edge = np.diff(z, axis=axis)
+            pad = [(0, 0), (0, 0)]
+            pad[axis] = (0, 1)
+            fwd = np.pad(edge, pad, constant_values=np.inf)  # +inf: no neighbour, never lower
+            pad[axis] = (1, 0)
+            bwd = np.pad(edge, pad, constant_values=-np.inf)
+        else:
+            raise ValueError(f"boundary must be 'periodic' or 'open', got {boundary!r}")
+        drop_fwd, drop_bwd = -fwd, bwd  # descent towards i+1 and towards i−1 (m)
+        g = np.where(drop_fwd >= drop_bwd, fwd, bwd)
+        out.append(np.where(np.maximum(drop_fwd, drop_bwd) > 0, g, 0.0) / step)
+    return out[0], out[1]
+
+
+def quarrying_focus(ub: np.ndarray, vb: np.ndarray, zx: np.ndarray, zy: np.ndarray) -> np.ndarray:
+    """Q = ½·(erf(−(u_s·∇z)/(0.4·|u_s|)) + 1) (001 §6.1); ½ where the ice does not slide."""
+    from scipy.special import erf
+
+    speed = np.hypot(ub, vb)
+    arg = -(ub * zx + vb * zy) / (0.4 * np.where(speed > 0, speed, 1.0))
+    return 0.5 * (erf(np.where(speed > 0, arg, 0.0)) + 1.0)
+
+
+def erosion_rates(
+    bed: np.ndarray,
+    ub: np.ndarray,
+    vb: np.ndarray,
+    grid: Grid,
+    k_e: float | np.ndarray = 1.3e-7,
+    abrasion_exponent: float = 2.02,
+    k_q: float | np.ndarray = 3.2e-5,
+    boundary: str = "open",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Abrasion and quarrying rates (m/y, ≤ 0), float64[ny, nx] each (001 §6.1).
+
+    Args:
+        bed: bedrock elevation z (m).
+        ub, vb: basal sliding velocity along x and y (m/y); 0 where there is no ice.
+        grid: cell sizes (m).
+        k_e: abrasion coefficient (m^(1−l)·y^(l−1)); abrasion_exponent: l.
+        k_q: quarrying coefficient (dimensionless).
+        boundary: edges of the bed gradient, ``"periodic"`` or ``"open"``.
+    """
+    for spec, value in zip(PARAMETERS, (k_e, abrasion_exponent, k_q), strict=True):
+        spec.check(value)
+    speed = np.hypot(ub, vb)
+    zx, zy = downward_gradient(bed, grid, boundary)
+    abrasion = -np.asarray(k_e) * speed**abrasion_exponent
+    quarrying = -np.asarray(k_q) * speed * quarrying_focus(ub, vb, zx, zy)
+    return abrasion, quarrying
