@@ -1,0 +1,284 @@
+"""Numba tracing of particle batches against a frozen terrain (003 §3–4).
+
+Each particle is emitted, moved (``physics``), detaches and deposits at every impact, and dies
+at the domain's edge (its load is lost), when it has settled, or at the end of its lifetime
+(it then leaves its load where it is). Particles are traced in parallel (``prange``) against
+a terrain frozen for the batch; what each does to the terrain is recorded as impact events
+(x, y, Q) in its own row, so the caller applies them in particle order and the result does not
+depend on the number of threads. Each particle draws its random numbers from its own stream,
+keyed by (seed, iteration, particle index).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from unerode_cli.particles import physics as ph
+from unerode_cli.particles import terrain_kernels as tk
+from unerode_cli.particles.emission import RAIN
+from unerode_cli.particles.medium import MEANDER, NONE, UNIFORM
+
+SETTLED, EDGE, EXPIRED = 0, 1, 2
+#: Columns of the per-particle budget: volumes (m³) carried in at emission, detached,
+#: deposited (impacts and death), lost at the edge, kept in suspension at death, and the part
+#: of the deposit left where the particle died.
+B_EMITTED, B_DETACHED, B_DEPOSITED, B_LOST, B_SUSPENDED, B_DROPPED = 0, 1, 2, 3, 4, 5
+N_BUDGET = 6
+
+
+@numba.njit(cache=True, inline="always")
+def _field(kind, medium, scalars, bands, x, y, in_water, dx, dy, alpha):
+    """Medium velocity α·v_f (m/s, kernel axes) at (x, y) in the medium there (003 Eq. 8)."""
+    if kind == NONE or (medium == 1 and in_water) or (medium == 2 and not in_water):
+        return 0.0, 0.0, 0.0
+    if kind == UNIFORM:
+        return alpha * scalars[0], alpha * scalars[1], alpha * scalars[2]
+    if kind == MEANDER:  # northward amplitude·sin(2πx/λ); kernel y points south
+        return 0.0, -alpha * scalars[0] * math.sin(2.0 * math.pi * x / scalars[1]), 0.0
+    ny, nx = bands.shape[1], bands.shape[2]
+    r = min(max(int(round(y / dy)), 0), ny - 1)
+    c = min(max(int(round(x / dx)), 0), nx - 1)
+    return alpha * bands[0, r, c], alpha * bands[1, r, c], alpha * bands[2, r, c]
+
+
+@numba.njit(cache=True, inline="always")
+def _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, sea, fkind, fmedium, fscal, fbands, dx, dy, alpha):
+    """One step of the motion (003 Eq. 5–8, ``physics``) under the net weight per unit mass
+    (ax, ay, az) (m/s²). Returns (x, y, z, vx, vy, vz)."""
+    phi1, phi2 = ph.drag_factors(tau_s, dt)
+    ux, uy, uz = _field(fkind, fmedium, fscal, fbands, x, y, z < sea, dx, dy, alpha)
+    x1 = ph.advance_position(x, vx, ux, ax, tau_s, dt, phi2)
+    y1 = ph.advance_position(y, vy, uy, ay, tau_s, dt, phi2)
+    z1 = ph.advance_position(z, vz, uz, az, tau_s, dt, phi2)
+    wx, wy, wz = ux, uy, uz
+    if fkind != NONE:
+        wx, wy, wz = _field(fkind, fmedium, fscal, fbands, x1, y1, z1 < sea, dx, dy, alpha)
+    return (x1, y1, z1, ph.advance_velocity(vx, 0.5 * (ux + wx), ax, tau_s, phi1),
+            ph.advance_velocity(vy, 0.5 * (uy + wy), ay, tau_s, phi1),
+            ph.advance_velocity(vz, 0.5 * (uz + wz), az, tau_s, phi1))
+
+
+@numba.njit(cache=True, inline="always")
+def _segment(cdf, u):
+    """Index of the first cumulative weight > u (clamped to the last one)."""
+    return min(np.searchsorted(cdf, u, side="right"), cdf.size - 1)
+
+
+@numba.njit(cache=True)
+def _emit(state, h, dx, dy, phys, ekind, ecdf, ecells, epts, espread):
+    """Draw a particle's radius (m) and start position (m). Returns (state, R, x, y, z)."""
+    nx = h.shape[1]
+    radius = phys[ph.P_RADIUS]
+    state, u = ph.uniform(state)
+    if phys[ph.P_RADIUS_MAX] > radius:
+        radius += u * (phys[ph.P_RADIUS_MAX] - radius)
+    if ekind == RAIN:
+        state, u = ph.uniform(state)
+        cell = ecells[_segment(ecdf, u)]
+        state, u1 = ph.uniform(state)
+        state, u2 = ph.uniform(state)
+        x = (cell % nx - 0.5 + u1) * dx
+        y = (cell // nx - 0.5 + u2) * dy
+    else:
+        x, y = epts[0, 0], epts[0, 1]
+        if epts.shape[0] > 1 and ecdf[ecdf.size - 1] > 0.0:
+            state, u = ph.uniform(state)
+            j = _segment(ecdf, u)
+            lower = ecdf[j - 1] if j > 0 else 0.0
+            frac = (u - lower) / (ecdf[j] - lower)
+            x = epts[j, 0] + frac * (epts[j + 1, 0] - epts[j, 0])
+            y = epts[j, 1] + frac * (epts[j + 1, 1] - epts[j, 1])
+        if espread > 0.0:
+            state, u1 = ph.uniform(state)
+            state, u2 = ph.uniform(state)
+            rho = espread * math.sqrt(u1)
+            x += rho * math.cos(2.0 * math.pi * u2)
+            y += rho * math.sin(2.0 * math.pi * u2)
+    z = tk.height(h, x, y, dx, dy) + phys[ph.P_DROP_HEIGHT]
+    return state, radius, x, y, z
+
+
+@numba.njit(cache=True, inline="always")
+def _record(path, n, stride_hit, x, y, z, t, dx, dy):
+    """Append (column, row, z, t) to a path buffer when ``stride_hit``; returns the new length.
+    A full buffer keeps its last slot for the final point."""
+    if path.shape[0] == 0 or not stride_hit:
+        return n
+    k = min(n, path.shape[0] - 1)
+    path[k, 0], path[k, 1], path[k, 2], path[k, 3] = x / dx, y / dy, z, t
+    return k + 1
+
+
+@numba.njit(cache=True)
+def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
+                   fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
+                   events, budget, path, path_stride):
+    """Trace particle ``index`` of ``iteration`` from emission to death on the frozen terrain.
+
+    Writes its impacts (x, y, Q in m, m, m³; Q > 0 deposits) into ``events`` while there is
+    room (the count goes on), its volumes into ``budget`` (columns ``B_*``) and, when ``path``
+    has rows, its path (column, row, z m, t s) every ``path_stride`` steps and at death.
+
+    Returns (number of events, radius R (m), fate, number of impacts, path length).
+    """
+    ny, nx = h.shape
+    state, radius, x, y, z = _emit(ph.stream_key(seed, iteration, index), h, dx, dy, phys,
+                                   ekind, ecdf, ecells, epts, espread)
+    vx, vy, vz = ev0[0], ev0[1], ev0[2]
+    rho_p, g, sea = phys[ph.P_DENSITY], phys[ph.P_GRAVITY], phys[ph.P_SEA_LEVEL]
+    n_hind, alpha = phys[ph.P_HINDERED], phys[ph.P_ALPHA]
+    half = 2.0 / 3.0 * math.pi * radius ** 3 * phys[ph.P_STRENGTH]
+    c_max = phys[ph.P_CAPACITY] * half
+    load = phys[ph.P_INITIAL_LOAD] * c_max
+    budget[B_EMITTED] = load
+    max_move = 0.5 * min(dx, dy)
+    t = 0.0
+    dt = phys[ph.P_DT]
+    step = 0
+    count = 0
+    impacts = 0
+    fate = EXPIRED
+    n_path = _record(path, 0, True, x, y, z, t, dx, dy)
+    ground = tk.height(h, x, y, dx, dy)
+    sliding = False
+    nxn, nyn, nzn = 0.0, 0.0, 1.0
+    while True:
+        col, row = x / dx, y / dy
+        c = min(max(int(round(col)), 0), nx - 1)
+        r = min(max(int(round(row)), 0), ny - 1)
+        if col < -0.5 or col > nx - 0.5 or row < -0.5 or row > ny - 0.5 or not valid[r, c]:
+            fate = EDGE
+            break
+        if z <= ground:  # impact: detachment and deposition (003 Eq. 1–4), then the bounce
+            impacts += 1
+            in_water = ground < sea
+            rho_f = phys[ph.P_RHO_WATER] if in_water else phys[ph.P_RHO_AIR]
+            mu = phys[ph.P_MU_WATER] if in_water else phys[ph.P_MU_AIR]
+            f = ph.hindered(load, c_max, n_hind)
+            w_s = ph.settling_velocity(radius, rho_p, rho_f, mu, g, f)
+            q_dep = min(ph.deposition(w_s, phys[ph.P_OMEGA], half), load)
+            speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+            tau = ph.shear_stress(speed, phys[ph.P_SHEAR_K], phys[ph.P_SHEAR_LENGTH])
+            m = mat[r, c]
+            q_det = ph.detachment(tau, keps[m], tauc[m], phys[ph.P_EXPONENT], half)
+            q_det = min(q_det, max(0.0, c_max - (load - q_dep)))
+            load = load - q_dep + q_det
+            budget[B_DETACHED] += q_det
+            budget[B_DEPOSITED] += q_dep
+            if q_dep != q_det:
+                if count < events.shape[0]:
+                    events[count, 0], events[count, 1], events[count, 2] = x, y, q_dep - q_det
+                count += 1
+            nxn, nyn, nzn = tk.normal(h, x, y, dx, dy)
+            # resting contact below twice the normal speed the weight added in the last step
+            stick = 2.0 * g * abs(rho_p - rho_f) / rho_p * dt
+            vx, vy, vz, sliding = ph.bounce(vx, vy, vz, nxn, nyn, nzn, phys[ph.P_RESTITUTION], stick)
+            z = ground
+            if math.sqrt(vx * vx + vy * vy + vz * vz) < phys[ph.P_REST_SPEED]:
+                fate = SETTLED
+                break
+        if t >= phys[ph.P_LIFETIME]:
+            break
+        # one step of the motion (003 Eq. 5–8) in the medium at the particle
+        in_water = z < sea
+        rho_f = phys[ph.P_RHO_WATER] if in_water else phys[ph.P_RHO_AIR]
+        mu = phys[ph.P_MU_WATER] if in_water else phys[ph.P_MU_AIR]
+        tau_s = ph.relaxation_time(radius, rho_p, mu)
+        acc = -g * (rho_p - rho_f) / rho_p
+        ax, ay, az = 0.0, 0.0, acc
+        if sliding:  # in resting contact only the weight's component along the ground acts
+            ax, ay, az = -acc * nzn * nxn, -acc * nzn * nyn, acc * (1.0 - nzn * nzn)
+            sliding = False
+        dt = min(phys[ph.P_DT], phys[ph.P_LIFETIME] - t)
+        speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if speed * dt > max_move:
+            dt = max_move / speed
+        x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, sea,
+                                          fkind, fmedium, fscal, fbands, dx, dy, alpha)
+        above = z - ground
+        ground = tk.height(h, x1, y1, dx, dy)
+        if above > 0.0 and ground > z1:  # end the step where it meets the ground (no tunnelling)
+            dt *= above / (above + ground - z1)
+            x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, sea,
+                                              fkind, fmedium, fscal, fbands, dx, dy, alpha)
+            ground = tk.height(h, x1, y1, dx, dy)
+            z1 = min(z1, ground)
+        vx, vy, vz = vx1, vy1, vz1
+        x, y, z = x1, y1, z1
+        t += dt
+        step += 1
+        n_path = _record(path, n_path, step % path_stride == 0, x, y, z, t, dx, dy)
+    if fate == EDGE:
+        budget[B_LOST] = load
+    else:
+        keep = load * phys[ph.P_KEEP_SUSPENDED]
+        budget[B_SUSPENDED] = keep
+        put = load - keep
+        if put > 0.0:
+            budget[B_DEPOSITED] += put
+            budget[B_DROPPED] = put
+            if count < events.shape[0]:
+                events[count, 0], events[count, 1], events[count, 2] = x, y, put
+            count += 1
+    if step % path_stride != 0:
+        n_path = _record(path, n_path, True, x, y, z, t, dx, dy)
+    return count, radius, fate, impacts, n_path
+
+
+@numba.njit(cache=True, parallel=True)
+def trace_batch(indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
+                fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
+                capacity, path_slot, path_buf, path_stride):
+    """Trace the particles ``indices`` (int64[n], indices within ``iteration``) in parallel.
+
+    Args:
+        capacity: rows of the event buffer per particle; a particle with more events reports
+            its full count, and the caller traces it again with a larger buffer (the result is
+            the same: the terrain is frozen and the particle's random stream is its own).
+        path_slot: int64[n], row of ``path_buf`` (float64[k, m, 4]) to record the particle's
+            path into, or −1.
+
+    Returns:
+        (events float64[n, capacity, 3], counts int64[n], radii float64[n], fates int8[n],
+        impacts int64[n], budget float64[n, N_BUDGET], path lengths int64[k]).
+    """
+    n = indices.size
+    events = np.zeros((n, capacity, 3))
+    counts = np.zeros(n, np.int64)
+    radii = np.zeros(n)
+    fates = np.zeros(n, np.int8)
+    impacts = np.zeros(n, np.int64)
+    budget = np.zeros((n, N_BUDGET))
+    path_len = np.zeros(path_buf.shape[0], np.int64)
+    no_path = np.zeros((0, 4))
+    for i in numba.prange(n):
+        slot = path_slot[i]
+        path = path_buf[slot] if slot >= 0 else no_path
+        count, radius, fate, n_imp, n_path = trace_particle(
+            indices[i], iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
+            fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
+            events[i], budget[i], path, path_stride)
+        counts[i] = count
+        radii[i] = radius
+        fates[i] = fate
+        impacts[i] = n_imp
+        if slot >= 0:
+            path_len[slot] = n_path
+    return events, counts, radii, fates, impacts, budget, path_len
+
+
+@numba.njit(cache=True)
+def flatten(events, counts, radii, retraced_row, retraced_events):
+    """Events of a batch in particle order as columns (x, y, Q, R): float64[Σ counts, 4].
+    ``retraced_row[i]`` ≥ 0 takes particle i's events from that row of ``retraced_events``."""
+    out = np.empty((counts.sum(), 4))
+    k = 0
+    for i in range(counts.size):
+        src = events[i] if retraced_row[i] < 0 else retraced_events[retraced_row[i]]
+        for j in range(counts[i]):
+            out[k, 0], out[k, 1], out[k, 2], out[k, 3] = src[j, 0], src[j, 1], src[j, 2], radii[i]
+            k += 1
+    return out

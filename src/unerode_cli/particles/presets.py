@@ -1,0 +1,119 @@
+"""Presets of particle erosion from 003 Table 1 and §5, every value overridable. No numba here.
+
+Table 1 gives R in cells (turned into metres with the grid's cell size here), the coefficient
+of restitution, ρ_p, the capacity factor, the erosion factor ε (K_ε here) and the deposition
+factor ω, particles per iteration and iterations. It gives no absolute volume scale, so the
+presets set ``strength`` = 0.01: a rain particle (R = 1 cell) then carries at most
+10 × 0.01 × 2π/3 ≈ 0.2 cell volumes (cell size³). Departures from the table are said in
+each preset's note.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+from unerode_cli.particles.parameters import ParticleParams, param_names
+
+#: Volume scale of the presets (see the module docstring).
+PRESET_STRENGTH = 0.01
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named set of parameters of 003 Table 1.
+
+    Attributes:
+        name: preset name.
+        help: one line for the command line's help.
+        radius_cells: particle radius R in cells (Table 1); ``radius_max_cells`` > 0 draws R
+            uniformly between the two.
+        particles: particles per iteration (Table 1 #P).
+        iterations: iterations (Table 1 #N).
+        emission: ``"rain"`` or ``"source"``.
+        field: the medium velocity field the preset expects (the user provides it), or "none".
+        field_medium: where that field acts: "both", "air" or "water".
+        values: other ``ParticleParams`` fields.
+        note: departures from 003 and what the user must supply.
+    """
+
+    name: str
+    help: str
+    radius_cells: float
+    particles: int
+    iterations: int
+    emission: str
+    values: Mapping[str, float]
+    radius_max_cells: float = 0.0
+    field: str = "none"
+    field_medium: str = "both"
+    note: str = ""
+
+    def params(self, cell_size: float, **overrides: float) -> ParticleParams:
+        """``ParticleParams`` of this preset on cells of ``cell_size`` (m), with ``overrides``
+        (``ParticleParams`` field names, SI units; ``radius`` in metres) replacing values."""
+        if not cell_size > 0:
+            raise ValueError(f"the cell size must be > 0 m, got {cell_size}")
+        unknown = sorted(set(overrides) - set(param_names()))
+        if unknown:
+            raise ValueError(f"unknown particle parameter(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(param_names())}")
+        values = {"radius": self.radius_cells * cell_size, "radius_max": self.radius_max_cells * cell_size,
+                  "strength": PRESET_STRENGTH, **self.values}
+        values.update(overrides)
+        return ParticleParams(**values)
+
+
+def _table(**values: float) -> Mapping[str, float]:
+    return MappingProxyType(values)
+
+
+PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in (
+    Preset("rain", "hydraulic erosion by rain drops falling everywhere (003 Table 1 Rain, Fig. 14)",
+           1.0, 100, 10, "rain",
+           _table(restitution=1.0, density=1000.0, capacity=10.0, k_eps=2.5, omega=0.3)),
+    Preset("river", "a river from a source point, particles of 1.5-5 cells (003 Table 1 River)",
+           1.5, 100, 50, "source",
+           _table(restitution=0.5, density=900.0, capacity=0.1, k_eps=1.0, omega=1.0),
+           radius_max_cells=5.0, note="give the source point (grid coordinates)"),
+    Preset("landslide", "big slow particles that spread matter down a slope (003 Table 1 Landslide)",
+           2.5, 200, 10, "rain",
+           _table(restitution=0.2, density=500.0, capacity=0.1, k_eps=1.0, omega=1.0),
+           note="mask the rain to the slope that slides"),
+    Preset("coastal", "waves corroding a coast: big particles pushed towards it (003 Table 1 Coastal)",
+           5.0, 80, 3, "rain",
+           _table(restitution=0.1, density=500.0, capacity=10.0, k_eps=5.0, omega=0.5, keep_suspended=1.0),
+           field="uniform, towards the coast", field_medium="water",
+           note="mask the rain to the sea and give a sea level; dissolved matter stays suspended "
+                "(removed by design: 003 §5 corrosion without mass conservation)"),
+    Preset("wind", "light particles carried by the wind, dunes and rock blasting (003 Table 1 Wind)",
+           1.5, 100, 10, "rain",
+           _table(restitution=0.9, density=1.5, capacity=1.0, k_eps=1.0, omega=1.0, drop_height=1.0),
+           field="wind (uniform or a raster)", field_medium="air",
+           note="particles start 1 m above the ground (they are blown, not dropped)"),
+    Preset("underwater", "currents eroding a sea floor (003 Table 1 Underwater)",
+           2.5, 100, 50, "rain",
+           _table(restitution=0.9, density=1000.0, capacity=1.0, k_eps=1.0, omega=1.0),
+           field="currents (a raster from a fluid simulation)", field_medium="water",
+           note="give a sea level above the floor"),
+    Preset("volcano", "a vent emitting loaded particles: the terrain gains mass (003 Table 1 Volcano)",
+           1.0, 150, 30, "source",
+           _table(restitution=0.5, density=2000.0, capacity=1.0, k_eps=1.0, omega=5.0, initial_load=0.1),
+           note="give the vent (grid coordinates); particles start loaded at 10 % of C_max (003 §5), "
+                "added matter is the budget's 'emitted'; Table 1 prints COR = 5.0, which would create "
+                "energy at every bounce: read as 0.5"),
+)})
+
+
+def get_preset(name: str) -> Preset:
+    """The preset called ``name``; ValueError (one sentence) when there is none."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise ValueError(f"unknown particle preset {name!r}; known presets: {', '.join(PRESETS)}") from None
+
+
+def preset_params(name: str, cell_size: float, **overrides: float) -> ParticleParams:
+    """``ParticleParams`` of preset ``name`` on cells of ``cell_size`` (m), with ``overrides``."""
+    return get_preset(name).params(cell_size, **overrides)
