@@ -5,8 +5,9 @@ The velocities (u, v) at the nodes of the terrain-following lattice (``lattice``
     E(u) = ∫_V (B/p)·|D(u)|^p dV + ∫_Γ (C/σ)·|u_b|_M^σ dS + ρg ∫_V ∇s·u dV          (001 Eq. 7)
 
 discretised in ``blatter_kernels`` (energy and analytic gradient in numba). Here E is
-minimised by L-BFGS (scipy's L-BFGS-B with the analytic gradient) over the unknowns of the
-ice-covered columns and their one-column halo, warm-started from a previous solution.
+minimised by a Jacobi-preconditioned L-BFGS (``_lbfgs``, with the analytic gradient) over
+the unknowns of the ice-covered columns and their one-column halo, warm-started from a
+previous solution.
 
 Rheology convention (Glen's flow law, exponent n, p = 1 + 1/n = 4/3 for n = 3):
 
