@@ -33,6 +33,21 @@ def _pyplot():
     return plt
 
 
+def _age_axis(ax, ylabel: str) -> None:
+    """Age (ka) along x with the past to the left, a legend and a light grid."""
+    ax.set_xlabel("age (ka)")
+    ax.set_ylabel(ylabel)
+    ax.invert_xaxis()
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+
+
+def _save(plt, fig, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
+
+
 def save_profiles_plot(
     path: Path,
     chainage_m: np.ndarray,
@@ -73,16 +88,10 @@ def save_profiles_plot(
                 label="simulated at the terrace")
     bottom.errorbar(levels.age_ka, levels.observed_m, yerr=errors, fmt="o", color=OBSERVED,
                     mec="k", capsize=3, label="observed terrace")
-    bottom.set_xlabel("age (ka)")
-    bottom.set_ylabel("height above today's river (m)")
-    bottom.invert_xaxis()
-    bottom.legend(fontsize=8)
-    bottom.grid(alpha=0.3)
+    _age_axis(bottom, "height above today's river (m)")
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
+    _save(plt, fig, path)
 
 
 def save_incision_plot(
@@ -114,13 +123,7 @@ def save_incision_plot(
         ax.plot(middle, interval_rates, "-o", color=SIMULATED, lw=0.8, ms=3,
                 label="simulated, between snapshots")
     ax.axhline(0.0, color="0.5", lw=0.8)
-    ax.set_xlabel("age (ka)")
-    ax.set_ylabel("incision rate (mm/ka)")
-    ax.invert_xaxis()
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    _age_axis(ax, "incision rate (mm/ka)")
     if title:
         ax.set_title(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110, format="png")
-    plt.close(fig)
+    _save(plt, fig, path)
