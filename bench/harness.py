@@ -61,10 +61,19 @@ def write_reports(results: list[Result], folder: Path) -> tuple[Path, Path]:
     json_path.write_text(json.dumps({"machine": machine,
                                      "results": [asdict(r) for r in results]}, indent=2) + "\n")
     lines = ["| benchmark | median | throughput |", "|---|---:|---:|"]
-    for r in results:
+    for r in sorted(results, key=lambda r: r.name):
         lines.append(f"| {r.name} | {_time(r.median_s)} | {_rate(r.throughput, r.unit)} |")
     md_path.write_text("\n".join(lines) + "\n")
     return json_path, md_path
+
+
+def load_results(folder: Path) -> list[Result]:
+    """The results of ``folder/results.json`` (none when it is missing)."""
+    path = folder / "results.json"
+    if not path.exists():
+        return []
+    rows = json.loads(path.read_text())["results"]
+    return [Result(r["name"], r["median_s"], r["runs_s"], r["amount"], r["unit"]) for r in rows]
 
 
 def _cpus() -> int:

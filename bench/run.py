@@ -1,6 +1,7 @@
 """Run the registered benchmarks: ``python bench/run.py [-k SUBSTRING] [--repeats N]``.
 
-Writes bench/results.json and bench/results.md (markdown table)."""
+Writes bench/results.json and bench/results.md (markdown table). With ``-k``, the earlier
+results of the benchmarks that were not run are kept."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from harness import REGISTRY, measure, write_reports  # noqa: E402
+from harness import REGISTRY, load_results, measure, write_reports  # noqa: E402
 
 
 def main() -> None:
@@ -28,6 +29,9 @@ def main() -> None:
             result = measure(name, case, args.repeats)
             print(f"{name:45s} {result.median_s * 1e3:10.1f} ms", flush=True)
             results.append(result)
+    if args.k:
+        fresh = {r.name for r in results}
+        results += [r for r in load_results(HERE) if r.name not in fresh]
     json_path, md_path = write_reports(results, HERE)
     print(md_path.read_text())
     print(f"wrote {json_path} and {md_path}")

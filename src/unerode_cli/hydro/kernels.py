@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numba.extending import overload
 
 DROW = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.int64)
 DCOL = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.int64)
@@ -282,39 +281,16 @@ def flow_fractions(zf, i, ny, nx, off, inv_dist, single, frac):
     return interior
 
 
-def add_share(acc, j, share, value):
-    """``acc[j] += share * value``; for ``acc`` of shape (n, 2), ``value`` is a pair routed
-    with the same share (compiled by numba only, see ``_add_share``)."""
-    raise NotImplementedError("numba only")
-
-
-@overload(add_share)
-def _add_share(acc, j, share, value):
-    if acc.ndim == 1:
-
-        def add_one(acc, j, share, value):
-            acc[j] += share * value
-
-        return add_one
-
-    def add_pair(acc, j, share, value):
-        acc[j, 0] += share * value[0]
-        acc[j, 1] += share * value[1]
-
-    return add_pair
-
-
 @numba.njit(cache=True)
 def spread(acc, i, off, frac, value, interior):
-    """Route ``value`` from cell ``i`` to its receivers: ``acc[i + off[k]] += frac[k] * value``
-    (see ``add_share`` for two quantities at once)."""
+    """Route ``value`` from cell ``i`` to its receivers: ``acc[i + off[k]] += frac[k] * value``."""
     if interior:
         for k in range(8):
-            add_share(acc, i + off[k], frac[k], value)
+            acc[i + off[k]] += frac[k] * value
     else:
         for k in range(8):
             if frac[k] > 0.0:
-                add_share(acc, i + off[k], frac[k], value)
+                acc[i + off[k]] += frac[k] * value
 
 
 @numba.njit(cache=True)

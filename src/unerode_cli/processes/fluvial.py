@@ -150,7 +150,7 @@ def step(
         the change (Δh with the uplift U·dt included), the fluxes Q and Q_s and the mass budget.
     """
     from unerode_cli.hydro.fields import flat_field
-    from unerode_cli.hydro.routing import route, scratch
+    from unerode_cli.hydro.routing import accumulate, route, scratch
     from unerode_cli.processes import fluvial_kernels as fk
 
     params.validate(grid)
@@ -163,29 +163,33 @@ def step(
     shape = grid.shape
     slope = scratch("fluvial.slope", (h.size,), np.float64)
     fk.slope_into(h, grid.valid, grid.dx, grid.dy, mode, slope)
+    # Two passes: Q first (it does not depend on the sediment), then the local terms in
+    # parallel, then the sediment sweep, whose serial chain holds no power or division.
+    discharge = accumulate(routing, params.precipitation)
+    erosion_field = scratch("fluvial.erosion", (h.size,), np.float64)
+    trapping = scratch("fluvial.trapping", (h.size,), np.float64)
+    fk.local_rates_into(discharge.ravel(), slope, flat_field(params.k, shape, "k"),
+                        flat_field(params.k_d, shape, "k_d"), float(params.m), float(params.n),
+                        erosion_field, trapping)
     dh = np.zeros(shape, dtype=np.float64)
-    flux = np.zeros((*shape, 2), dtype=np.float64)  # Q and Q_s side by side
-    erosion, deposition, outflow = fk.fluvial_sweep_into(
+    sediment_flux = np.zeros(shape, dtype=np.float64)
+    erosion, deposition, outflow = fk.sediment_sweep_into(
         routing.filled,
         routing.outlets,
         routing.order,
         grid.dx,
         grid.dy,
         routing.single,
-        slope,
-        flat_field(params.precipitation, shape, "precipitation"),
+        erosion_field,
+        trapping,
         flat_field(params.uplift, shape, "uplift"),
-        flat_field(params.k, shape, "k"),
-        flat_field(params.k_d, shape, "k_d"),
-        float(params.m),
-        float(params.n),
         float(dt),
         dh.ravel(),
-        flux.reshape(-1, 2),
+        sediment_flux.ravel(),
     )
     removed, added = (erosion, deposition) if dt >= 0 else (deposition, erosion)
     budget = MassBudget(abs(dt) * removed, abs(dt) * added, dt * outflow)
-    return FluvialChange(dh, flux[:, :, 1], flux[:, :, 0], budget)
+    return FluvialChange(dh, sediment_flux, discharge, budget)
 
 
 def max_stable_dt(

@@ -14,8 +14,8 @@ from unerode_cli.hydro.kernels import (
     inverse_distances,
     neighbour_offsets,
     row_of,
-    slope_to,
     spread,
+    spread_mfd,
     steepest_of,
 )
 
@@ -69,11 +69,11 @@ def slope_magnitude(h, valid, dx, dy, mode):
     return s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def slope_into(h, valid, dx, dy, mode, s):
-    """``slope_magnitude`` into ``s`` (float64[ny*nx], any content on entry)."""
+    """``slope_magnitude`` into ``s`` (float64[ny*nx], any content on entry); rows in parallel."""
     ny, nx = h.shape
-    for r in range(ny):
+    for r in numba.prange(ny):
         for c in range(nx):
             if not valid[r, c]:
                 s[r * nx + c] = 0.0
@@ -88,94 +88,55 @@ def slope_into(h, valid, dx, dy, mode, s):
             s[r * nx + c] = np.sqrt(gx * gx + gy * gy)
 
 
-@numba.njit(cache=True, inline="always")
-def _spread_pair_mfd(flux, z, i, h, off, inv_dist, q, qs):
-    """Multiple flow directions at an interior cell ``i``: ``flux[j, 0] += frac·q`` and
-    ``flux[j, 1] += frac·qs`` for the 8 neighbours j, with the fractions of
-    ``unerode_cli.hydro.kernels.flow_fractions`` (000 Eq. 6) computed by the same operations
-    in the same order (bit-identical shares; see ``spread_mfd``)."""
-    s0 = slope_to(z, h, i + off[0], inv_dist[0])
-    s1 = slope_to(z, h, i + off[1], inv_dist[1])
-    s2 = slope_to(z, h, i + off[2], inv_dist[2])
-    s3 = slope_to(z, h, i + off[3], inv_dist[3])
-    s4 = slope_to(z, h, i + off[4], inv_dist[4])
-    s5 = slope_to(z, h, i + off[5], inv_dist[5])
-    s6 = slope_to(z, h, i + off[6], inv_dist[6])
-    s7 = slope_to(z, h, i + off[7], inv_dist[7])
-    total = 0.0 + s0 + s1 + s2 + s3 + s4 + s5 + s6 + s7
-    scale = 1.0 / total if total > 0.0 else 0.0
-    f = s0 * scale
-    flux[i + off[0], 0] += f * q
-    flux[i + off[0], 1] += f * qs
-    f = s1 * scale
-    flux[i + off[1], 0] += f * q
-    flux[i + off[1], 1] += f * qs
-    f = s2 * scale
-    flux[i + off[2], 0] += f * q
-    flux[i + off[2], 1] += f * qs
-    f = s3 * scale
-    flux[i + off[3], 0] += f * q
-    flux[i + off[3], 1] += f * qs
-    f = s4 * scale
-    flux[i + off[4], 0] += f * q
-    flux[i + off[4], 1] += f * qs
-    f = s5 * scale
-    flux[i + off[5], 0] += f * q
-    flux[i + off[5], 1] += f * qs
-    f = s6 * scale
-    flux[i + off[6], 0] += f * q
-    flux[i + off[6], 1] += f * qs
-    f = s7 * scale
-    flux[i + off[7], 0] += f * q
-    flux[i + off[7], 1] += f * qs
+@numba.njit(cache=True, parallel=True)
+def local_rates_into(q, slope, k, k_d, m, n, erosion, trapping):
+    """The per-cell terms of 000 Eq. 8 that do not depend on the sediment flux, in parallel.
+
+      erosion[i]  = E = K·Q^m·|∇h|^n      (m/y; 0 where Q or |∇h| is 0)
+      trapping[i] = K_d/Q                 (1/m²; the deposition rate is D = Q̃s·K_d/Q, Eq. 7)
+
+    where Q is 0 and K_d > 0, ``trapping`` is +inf (whatever arrives is deposited, up to the
+    cap of ``sediment_sweep_into``).
+
+    Args:
+        q: float64[ny*nx] discharge Q (m³/y); slope: float64[ny*nx] |∇h| (m/m).
+        k, k_d: fields K (m^(1−3m)·y^(m−1)) and K_d (m/y).
+        m, n: stream power exponents.
+        erosion, trapping: float64[ny*nx] outputs (any content on entry).
+    """
+    for i in numba.prange(q.size):
+        qi = q[i]
+        s = slope[i]
+        e = 0.0
+        if qi > 0.0 and s > 0.0:
+            e = _at(k, i) * qi**m * (s if n == 1.0 else s**n)
+        erosion[i] = e
+        kd = _at(k_d, i)
+        trapping[i] = kd / qi if qi > 0.0 else (np.inf if kd > 0.0 else 0.0)
 
 
 @numba.njit(cache=True)
-def fluvial_sweep(zf, outlets, order, dx, dy, single, slope, precipitation, uplift, k, k_d, m, n, dt):
-    """One step of 000 Eq. 8 in a single pass over the cells, donors first (000 Algorithm 1).
+def sediment_sweep_into(zf, outlets, order, dx, dy, single, erosion, trapping, uplift, dt, dh, qs):
+    """One step of 000 Eq. 8 in a single pass over the cells, donors first (000 Algorithm 1),
+    given the local terms of ``local_rates_into``. At each cell p, with every donor done:
 
-    At each cell p, with every donor already done:
-      Q(p)  = p(p)·A + Σ_donors α·Q                       (000 Eq. 5, m³/y; A = dx·dy)
-      Q̃s(p) = Σ_donors α·Qs                               (m³/y)
-      E     = K·Q^m·|∇h|^n                                 (erosion rate, m/y)
-      D     = min(K_d·Q̃s/Q, Q̃s/A)                         (deposition rate, m/y)
-      Δh    = dt·(U − E + D)                               (000 Eq. 8)
-      Qs(p) = (U − Δh/dt)·A + Q̃s = (E − D)·A + Q̃s ≥ 0      (000 Eq. 7)
+      Q̃s    = Σ_donors α·Qs                        (m³/y, arriving sediment flux)
+      D     = Q̃s·min(K_d/Q, 1/A)                  (deposition rate, m/y; A = dx·dy)
+      Δh    = dt·(U − E + D)                       (000 Eq. 8)
+      Qs(p) = Q̃s + (E − D)·A ≥ 0                   (000 Eq. 7)
+
     D is capped at what arrives (Q̃s/A) so that Qs is never negative. Outlets keep their
-    elevation (Δh = 0, no uplift) and pass on what arrives: Qs = Q̃s.
+    elevation (Δh = 0, no uplift) and pass on nothing: their Qs is what leaves the domain.
 
     Args:
         zf, outlets, order, dx, dy, single: the routing (see ``unerode_cli.hydro.kernels``).
-        slope: float64[ny*nx] |∇h| at time t (m/m).
-        precipitation, uplift, k, k_d: fields p (m/y), U (m/y), K (m^(1−3m)·y^(m−1)),
-            K_d (m/y).
-        m, n: stream power exponents; dt: time step (y), negative backward in time.
+        erosion, trapping: float64[ny*nx] E (m/y) and K_d/Q (1/m²).
+        uplift: field U (m/y); dt: time step (y), negative backward in time.
+        dh: float64[ny*nx] set to Δh (m) on the valid non-outlet cells (others untouched).
+        qs: float64[ny*nx], all 0 on entry, set to Qs (m³/y).
 
     Returns:
-        (dh float64[ny*nx] (m), Q float64[ny*nx] (m³/y), Qs float64[ny*nx] (m³/y),
-         Σ max(0, E − D)·A, Σ max(0, D − E)·A over free cells and Σ Q̃s over outlets, m³/y).
-    """
-    size = zf.size
-    dh = np.zeros(size, dtype=np.float64)
-    # Q and Qs side by side: the sweep reads and writes both at the same cells.
-    flux = np.zeros((size, 2), dtype=np.float64)
-    rates = fluvial_sweep_into(
-        zf, outlets, order, dx, dy, single, slope, precipitation, uplift, k, k_d, m, n, dt, dh, flux
-    )
-    return dh, flux[:, 0], flux[:, 1], rates[0], rates[1], rates[2]
-
-
-@numba.njit(cache=True)
-def fluvial_sweep_into(
-    zf, outlets, order, dx, dy, single, slope, precipitation, uplift, k, k_d, m, n, dt, dh, flux
-):
-    """``fluvial_sweep`` into arrays given by the caller: ``dh`` float64[ny*nx] and ``flux``
-    float64[ny*nx, 2] (Q, Qs), both all 0 on entry. Interior cells spread Q and Qs with
-    ``steepest_of`` / ``_spread_pair_mfd``, the others with ``flow_fractions``: the same
-    shares.
-
-    Returns:
-        (Σ max(0, E − D)·A, Σ max(0, D − E)·A, Σ Q̃s over outlets), m³/y.
+        (Σ max(0, E − D)·A, Σ max(0, D − E)·A over free cells and Σ Q̃s over outlets), m³/y.
     """
     ny, nx = zf.shape
     z = zf.ravel()
@@ -183,6 +144,7 @@ def fluvial_sweep_into(
     off = neighbour_offsets(nx)
     inv_dist = inverse_distances(dx, dy)
     area = dx * dy
+    inv_area = 1.0 / area
     inv_nx = 1.0 / nx
     frac = np.empty(8, dtype=np.float64)
     erosion_rate = 0.0
@@ -190,38 +152,29 @@ def fluvial_sweep_into(
     outflow_rate = 0.0
     for idx in range(order.size):
         i = order[idx]
-        qi = flux[i, 0] + _at(precipitation, i) * area
-        flux[i, 0] = qi
-        arriving = flux[i, 1]
+        arriving = qs[i]
         if out[i]:
             outflow_rate += arriving
             continue
-        s = slope[i]
-        erosion = 0.0
-        if qi > 0.0 and s > 0.0:
-            erosion = _at(k, i) * qi**m * (s if n == 1.0 else s**n)
-        deposition = 0.0
-        if arriving > 0.0:
-            deposition = min(_at(k_d, i) * arriving / qi, arriving / area)
-        net = erosion - deposition
+        net = erosion[i] - arriving * min(trapping[i], inv_area)
         dh[i] = dt * (_at(uplift, i) - net)
         leaving = max(arriving + net * area, 0.0)
-        flux[i, 1] = leaving
+        qs[i] = leaving
         erosion_rate += max(net, 0.0) * area
         deposition_rate += max(-net, 0.0) * area
+        # The same shares as ``accumulate_into`` (one-pass paths for interior cells).
         r = row_of(i, inv_nx)
         col = i - r * nx
         if 0 < r < ny - 1 and 0 < col < nx - 1:
             if single:
                 best = steepest_of(z, i, z[i], off, inv_dist)
                 if best >= 0:
-                    flux[i + off[best], 0] += qi
-                    flux[i + off[best], 1] += leaving
+                    qs[i + off[best]] += leaving
             else:
-                _spread_pair_mfd(flux, z, i, z[i], off, inv_dist, qi, leaving)
+                spread_mfd(qs, z, i, z[i], off, inv_dist, leaving)
         else:
             interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
-            spread(flux, i, off, frac, (qi, leaving), interior)
+            spread(qs, i, off, frac, leaving, interior)
     return erosion_rate, deposition_rate, outflow_rate
 
 
