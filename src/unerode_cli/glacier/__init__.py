@@ -9,6 +9,7 @@ Modules, one job each:
   with the numba energy and analytic gradient in ``blatter_kernels``;
 - ``sia``: the shallow-ice approximation, the fast baseline;
 - ``transport``: ∂H/∂t = M − ∇·(H ū) (001 Eq. 1), limited upwind fluxes in ``transport_kernels``;
+- ``multiscale``: long steps of that transport, δt(x) and a Gaussian stack of T (001 §5);
 - ``erosion``: abrasion and quarrying from the sliding velocity (001 §6.1).
 
 Conventions: x along columns (east), y along rows (increasing row index, i.e. south on a
