@@ -16,6 +16,7 @@ from unerode_cli.cli.erode import erode, unerode
 from unerode_cli.cli.flow import flow
 from unerode_cli.cli.hypsometry import hypsometry
 from unerode_cli.cli.info import info
+from unerode_cli.cli.particle_erode import particle_erode
 from unerode_cli.cli.pipeline_cmd import pipeline_app
 from unerode_cli.cli.preview import preview
 from unerode_cli.cli.synth import synth
@@ -33,6 +34,7 @@ for command in (info, convert, preview, synth, flow, erode, unerode, diff, hypso
     app.command()(command)
 app.command("climate-run")(climate_run)
 app.command("compare-terraces")(compare_terraces)
+app.command("particle-erode")(particle_erode)
 app.add_typer(pipeline_app, name="pipeline")
 
 

@@ -16,7 +16,9 @@ VALUES_ARGUMENT = "parameter_values"
 
 
 def option_help(spec: ParamSpec) -> str:
-    """Help text with unit, default, range and whether a raster is accepted."""
+    """Help text with unit, default, range and whether a raster is accepted.
+
+    The bracket is escaped: rich would read ``[m/y; ...]`` as a markup tag and drop it."""
     bounds = []
     if spec.minimum is not None:
         bounds.append(f"≥ {spec.minimum:g}")
@@ -24,7 +26,7 @@ def option_help(spec: ParamSpec) -> str:
         bounds.append(f"≤ {spec.maximum:g}")
     extra = f"; {', '.join(bounds)}" if bounds else ""
     raster = "; a number or a raster on the DEM's grid" if spec.raster else ""
-    return f"{spec.help} [{spec.unit}; default {spec.default:g}{extra}{raster}]"
+    return f"{spec.help} \\[{spec.unit}; default {spec.default:g}{extra}{raster}]"
 
 
 def with_parameter_options(

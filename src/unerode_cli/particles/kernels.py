@@ -45,10 +45,11 @@ def _field(kind, medium, scalars, bands, x, y, in_water, dx, dy, alpha):
 
 
 @numba.njit(cache=True, inline="always")
-def _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, sea, fkind, fmedium, fscal, fbands, dx, dy, alpha):
-    """One step of the motion (003 Eq. 5–8, ``physics``) under the net weight per unit mass
-    (ax, ay, az) (m/s²). Returns (x, y, z, vx, vy, vz)."""
-    phi1, phi2 = ph.drag_factors(tau_s, dt)
+def _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, phi1, phi2, sea, fkind, fmedium, fscal, fbands,
+          dx, dy, alpha):
+    """One step dt (s) of the motion (003 Eq. 5–8, ``physics``) under the net weight per unit
+    mass (ax, ay, az) (m/s²), with (φ1, φ2) = ``physics.drag_factors(tau_s, dt)``.
+    Returns (x, y, z, vx, vy, vz)."""
     ux, uy, uz = _field(fkind, fmedium, fscal, fbands, x, y, z < sea, dx, dy, alpha)
     x1 = ph.advance_position(x, vx, ux, ax, tau_s, dt, phi2)
     y1 = ph.advance_position(y, vy, uy, ay, tau_s, dt, phi2)
@@ -130,6 +131,19 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
     vx, vy, vz = ev0[0], ev0[1], ev0[2]
     rho_p, g, sea = phys[ph.P_DENSITY], phys[ph.P_GRAVITY], phys[ph.P_SEA_LEVEL]
     n_hind, alpha = phys[ph.P_HINDERED], phys[ph.P_ALPHA]
+    omega, shear_k, shear_l = phys[ph.P_OMEGA], phys[ph.P_SHEAR_K], phys[ph.P_SHEAR_LENGTH]
+    exponent, restitution = phys[ph.P_EXPONENT], phys[ph.P_RESTITUTION]
+    lifetime, max_dt, rest_speed = phys[ph.P_LIFETIME], phys[ph.P_DT], phys[ph.P_REST_SPEED]
+    # what depends on the medium only (index 0 air, 1 water), evaluated once per particle:
+    # relaxation time τ_s (s), net weight per unit mass (m/s²), settling speed of an empty
+    # particle (m/s; × f(C) at an impact) and resting-contact speed per second of step (m/s²)
+    rho_f2 = (phys[ph.P_RHO_AIR], phys[ph.P_RHO_WATER])
+    mu2 = (phys[ph.P_MU_AIR], phys[ph.P_MU_WATER])
+    tau2 = (ph.relaxation_time(radius, rho_p, mu2[0]), ph.relaxation_time(radius, rho_p, mu2[1]))
+    acc2 = (-g * (rho_p - rho_f2[0]) / rho_p, -g * (rho_p - rho_f2[1]) / rho_p)
+    settle2 = (ph.settling_velocity(radius, rho_p, rho_f2[0], mu2[0], g, 1.0),
+               ph.settling_velocity(radius, rho_p, rho_f2[1], mu2[1], g, 1.0))
+    stick2 = (2.0 * g * abs(rho_p - rho_f2[0]) / rho_p, 2.0 * g * abs(rho_p - rho_f2[1]) / rho_p)
     half = 2.0 / 3.0 * math.pi * radius ** 3 * phys[ph.P_STRENGTH]
     c_max = phys[ph.P_CAPACITY] * half
     load = phys[ph.P_INITIAL_LOAD] * c_max
@@ -142,11 +156,12 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
     impacts = 0
     fate = EXPIRED
     n_path = _record(path, 0, True, x, y, z, t, dx, dy)
-    ground = tk.height(h, x, y, dx, dy)
+    col, row = x / dx, y / dy  # grid coordinates of (x, y), kept along with them
+    ground = tk.height_at(h, col, row)
     sliding = False
     nxn, nyn, nzn = 0.0, 0.0, 1.0
+    tau_memo, dt_memo, phi1, phi2 = -1.0, -1.0, 0.0, 0.0
     while True:
-        col, row = x / dx, y / dy
         c = min(max(int(round(col)), 0), nx - 1)
         r = min(max(int(round(row)), 0), ny - 1)
         if col < -0.5 or col > nx - 0.5 or row < -0.5 or row > ny - 0.5 or not valid[r, c]:
@@ -154,16 +169,13 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
             break
         if z <= ground:  # impact: detachment and deposition (003 Eq. 1–4), then the bounce
             impacts += 1
-            in_water = ground < sea
-            rho_f = phys[ph.P_RHO_WATER] if in_water else phys[ph.P_RHO_AIR]
-            mu = phys[ph.P_MU_WATER] if in_water else phys[ph.P_MU_AIR]
-            f = ph.hindered(load, c_max, n_hind)
-            w_s = ph.settling_velocity(radius, rho_p, rho_f, mu, g, f)
-            q_dep = min(ph.deposition(w_s, phys[ph.P_OMEGA], half), load)
+            medium = 1 if ground < sea else 0
+            w_s = settle2[medium] * ph.hindered(load, c_max, n_hind)
+            q_dep = min(ph.deposition(w_s, omega, half), load)
             speed = math.sqrt(vx * vx + vy * vy + vz * vz)
-            tau = ph.shear_stress(speed, phys[ph.P_SHEAR_K], phys[ph.P_SHEAR_LENGTH])
+            tau = ph.shear_stress(speed, shear_k, shear_l)
             m = mat[r, c]
-            q_det = ph.detachment(tau, keps[m], tauc[m], phys[ph.P_EXPONENT], half)
+            q_det = ph.detachment(tau, keps[m], tauc[m], exponent, half)
             q_det = min(q_det, max(0.0, c_max - (load - q_dep)))
             load = load - q_dep + q_det
             budget[B_DETACHED] += q_det
@@ -172,39 +184,44 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
                 if count < events.shape[0]:
                     events[count, 0], events[count, 1], events[count, 2] = x, y, q_dep - q_det
                 count += 1
-            nxn, nyn, nzn = tk.normal(h, x, y, dx, dy)
+            nxn, nyn, nzn = tk.normal_at(h, col, row, dx, dy)
             # resting contact below twice the normal speed the weight added in the last step
-            stick = 2.0 * g * abs(rho_p - rho_f) / rho_p * dt
-            vx, vy, vz, sliding = ph.bounce(vx, vy, vz, nxn, nyn, nzn, phys[ph.P_RESTITUTION], stick)
+            stick = stick2[medium] * dt
+            vx, vy, vz, sliding = ph.bounce(vx, vy, vz, nxn, nyn, nzn, restitution, stick)
             z = ground
-            if math.sqrt(vx * vx + vy * vy + vz * vz) < phys[ph.P_REST_SPEED]:
+            if math.sqrt(vx * vx + vy * vy + vz * vz) < rest_speed:
                 fate = SETTLED
                 break
-        if t >= phys[ph.P_LIFETIME]:
+        if t >= lifetime:
             break
         # one step of the motion (003 Eq. 5–8) in the medium at the particle
-        in_water = z < sea
-        rho_f = phys[ph.P_RHO_WATER] if in_water else phys[ph.P_RHO_AIR]
-        mu = phys[ph.P_MU_WATER] if in_water else phys[ph.P_MU_AIR]
-        tau_s = ph.relaxation_time(radius, rho_p, mu)
-        acc = -g * (rho_p - rho_f) / rho_p
+        medium = 1 if z < sea else 0
+        tau_s = tau2[medium]
+        acc = acc2[medium]
         ax, ay, az = 0.0, 0.0, acc
         if sliding:  # in resting contact only the weight's component along the ground acts
             ax, ay, az = -acc * nzn * nxn, -acc * nzn * nyn, acc * (1.0 - nzn * nzn)
             sliding = False
-        dt = min(phys[ph.P_DT], phys[ph.P_LIFETIME] - t)
+        dt = min(max_dt, lifetime - t)
         speed = math.sqrt(vx * vx + vy * vy + vz * vz)
         if speed * dt > max_move:
             dt = max_move / speed
-        x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, sea,
+        if tau_s != tau_memo or dt != dt_memo:  # the exponentials only when the step or medium changed
+            tau_memo, dt_memo = tau_s, dt
+            phi1, phi2 = ph.drag_factors(tau_s, dt)
+        x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, phi1, phi2, sea,
                                           fkind, fmedium, fscal, fbands, dx, dy, alpha)
         above = z - ground
-        ground = tk.height(h, x1, y1, dx, dy)
+        col, row = x1 / dx, y1 / dy
+        ground = tk.height_at(h, col, row)
         if above > 0.0 and ground > z1:  # end the step where it meets the ground (no tunnelling)
             dt *= above / (above + ground - z1)
-            x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, sea,
+            tau_memo, dt_memo = tau_s, dt
+            phi1, phi2 = ph.drag_factors(tau_s, dt)
+            x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, phi1, phi2, sea,
                                               fkind, fmedium, fscal, fbands, dx, dy, alpha)
-            ground = tk.height(h, x1, y1, dx, dy)
+            col, row = x1 / dx, y1 / dy
+            ground = tk.height_at(h, col, row)
             z1 = min(z1, ground)
         vx, vy, vz = vx1, vy1, vz1
         x, y, z = x1, y1, z1
@@ -231,22 +248,23 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
 @numba.njit(cache=True, parallel=True)
 def trace_batch(indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
                 fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
-                capacity, path_slot, path_buf, path_stride):
+                events, path_slot, path_buf, path_stride):
     """Trace the particles ``indices`` (int64[n], indices within ``iteration``) in parallel.
 
     Args:
-        capacity: rows of the event buffer per particle; a particle with more events reports
-            its full count, and the caller traces it again with a larger buffer (the result is
-            the same: the terrain is frozen and the particle's random stream is its own).
+        events: float64[≥ n, capacity, 3] buffer (its content is overwritten; the caller keeps
+            it from batch to batch) for the events of particle i in row i; a particle with
+            more than ``capacity`` events reports its full count, and the caller traces it
+            again with a larger buffer (the result is the same: the terrain is frozen and the
+            particle's random stream is its own).
         path_slot: int64[n], row of ``path_buf`` (float64[k, m, 4]) to record the particle's
             path into, or −1.
 
     Returns:
-        (events float64[n, capacity, 3], counts int64[n], radii float64[n], fates int8[n],
+        (events (the buffer), counts int64[n], radii float64[n], fates int8[n],
         impacts int64[n], budget float64[n, N_BUDGET], path lengths int64[k]).
     """
     n = indices.size
-    events = np.zeros((n, capacity, 3))
     counts = np.zeros(n, np.int64)
     radii = np.zeros(n)
     fates = np.zeros(n, np.int8)

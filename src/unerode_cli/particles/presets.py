@@ -76,7 +76,7 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in (
     Preset("river", "a river from a source point, particles of 1.5-5 cells (003 Table 1 River)",
            1.5, 100, 50, "source",
            _table(restitution=0.5, density=900.0, capacity=0.1, k_eps=1.0, omega=1.0),
-           radius_max_cells=5.0, note="give the source point (grid coordinates)"),
+           radius_max_cells=5.0, note="give the source point"),
     Preset("landslide", "big slow particles that spread matter down a slope (003 Table 1 Landslide)",
            2.5, 200, 10, "rain",
            _table(restitution=0.2, density=500.0, capacity=0.1, k_eps=1.0, omega=1.0),
@@ -100,7 +100,7 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in (
     Preset("volcano", "a vent emitting loaded particles: the terrain gains mass (003 Table 1 Volcano)",
            1.0, 150, 30, "source",
            _table(restitution=0.5, density=2000.0, capacity=1.0, k_eps=1.0, omega=5.0, initial_load=0.1),
-           note="give the vent (grid coordinates); particles start loaded at 10 % of C_max (003 §5), "
+           note="give the vent; particles start loaded at 10 % of C_max (003 §5), "
                 "added matter is the budget's 'emitted'; Table 1 prints COR = 5.0, which would create "
                 "energy at every bounce: read as 0.5"),
 )})

@@ -13,6 +13,7 @@ The numba kernels are imported on first use.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -155,7 +156,8 @@ def _check_run_args(iterations: int, seed: int, paths: int, path_stride: int,
 
 def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterations: int = 1,
         seed: int = 0, velocity: VelocityField | None = None, sea_level: float | None = None,
-        paths: int = 0, path_stride: int = 1) -> ParticleRun:
+        paths: int = 0, path_stride: int = 1,
+        on_iteration: Callable[[int], None] | None = None) -> ParticleRun:
     """Erode ``terrain`` with particles (003 §3–4).
 
     Each iteration emits ``emission.count`` particles, traces all of them against the terrain
@@ -177,6 +179,7 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
             air; None = air everywhere.
         paths: number of particle paths to sample, evenly over the run's particles.
         path_stride: record a sampled path every this many steps (and at death).
+        on_iteration: called with the number of finished iterations after each one (progress).
 
     Returns:
         The new terrain, its surface and change, the mass budget, counts and sampled paths.
@@ -202,6 +205,7 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
     chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
     work = terrain.copy()
     capacity = 32
+    buffer = np.empty((0, 0, 3))  # event rows of a batch, kept from batch to batch
     sums: list[list[float]] = [[] for _ in range(kernels.N_BUDGET)]
     impacts = 0
     fate_counts = np.zeros(3, np.int64)
@@ -217,15 +221,18 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
             picked = np.isin(numbers, chosen)
             slot[picked] = np.arange(picked.sum())
             path_buf = np.zeros((int(picked.sum()), MAX_PATH_POINTS, 4))
+            if buffer.shape[0] < indices.size or buffer.shape[1] < capacity:
+                buffer = np.empty((max(buffer.shape[0], indices.size), max(buffer.shape[1], capacity), 3))
             events, counts, radii, fates, n_imp, budget, path_len = kernels.trace_batch(
-                indices, iteration, seed, phys, *frozen, capacity, slot, path_buf, path_stride)
-            over = np.flatnonzero(counts > capacity)
+                indices, iteration, seed, phys, *frozen, buffer[: indices.size], slot, path_buf, path_stride)
+            over = np.flatnonzero(counts > buffer.shape[1])
             retraced_row = np.full(indices.size, -1, np.int64)
             retraced = np.zeros((0, 1, 3))
             if over.size:
-                retraced = kernels.trace_batch(
-                    indices[over], iteration, seed, phys, *frozen, int(counts[over].max()),
-                    np.full(over.size, -1, np.int64), np.zeros((0, 1, 4)), path_stride)[0]
+                larger = np.empty((over.size, int(counts[over].max()), 3))
+                retraced = kernels.trace_batch(indices[over], iteration, seed, phys, *frozen, larger,
+                                               np.full(over.size, -1, np.int64), np.zeros((0, 1, 4)),
+                                               path_stride)[0]
                 retraced_row[over] = np.arange(over.size)
             flat = kernels.flatten(events, counts, radii, retraced_row, retraced)
             work.apply(*(np.ascontiguousarray(flat[:, k]) for k in range(4)))
@@ -237,6 +244,8 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
             for i, s in zip(np.flatnonzero(picked), slot[picked], strict=True):
                 sampled.append(ParticlePath(iteration, int(indices[i]), path_buf[s, : path_len[s]].copy(),
                                             _FATES[fates[i]]))
+        if on_iteration is not None:
+            on_iteration(iteration + 1)
     new_surface = work.surface()
     dh = np.where(grid.valid, new_surface - terrain.surface(), 0.0)
     total_of = [math.fsum(column) for column in sums]

@@ -123,9 +123,12 @@ class HeightfieldTerrain(Terrain):
         )
 
     def apply(self, x: np.ndarray, y: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
+        import numba
+
         from unerode_cli.particles import terrain_kernels as tk
 
-        tk.apply_heightfield(self._h, self.grid.valid, self.grid.dx, self.grid.dy, x, y, q, radius)
+        tk.apply_heightfield(self._h, self.grid.valid, self.grid.dx, self.grid.dy, x, y, q, radius,
+                             numba.get_num_threads())
 
     def copy(self) -> HeightfieldTerrain:
         return HeightfieldTerrain(self._h, self.grid)

@@ -14,19 +14,20 @@ import numpy as np
 
 
 @numba.njit(cache=True, inline="always")
-def _cell_frac(x, d, n):
-    """Lower cell index and fraction of a coordinate between cell centres, clamped to the grid."""
-    s = min(max(x / d, 0.0), n - 1.0)
+def _cell_frac(s, n):
+    """Lower cell index and fraction of a grid coordinate ``s`` (cell centres at integers),
+    clamped to the grid."""
+    s = min(max(s, 0.0), n - 1.0)
     i = min(int(s), n - 2) if n > 1 else 0
     return i, s - i
 
 
 @numba.njit(cache=True)
-def height(h, x, y, dx, dy):
-    """Bilinear ground height (m) at (x, y) (m)."""
+def height_at(h, col, row):
+    """Bilinear ground height (m) at grid coordinates (col, row) = (x/dx, y/dy)."""
     ny, nx = h.shape
-    c, fx = _cell_frac(x, dx, nx)
-    r, fy = _cell_frac(y, dy, ny)
+    c, fx = _cell_frac(col, nx)
+    r, fy = _cell_frac(row, ny)
     c1 = min(c + 1, nx - 1)
     r1 = min(r + 1, ny - 1)
     top = h[r, c] * (1.0 - fx) + h[r, c1] * fx
@@ -35,17 +36,30 @@ def height(h, x, y, dx, dy):
 
 
 @numba.njit(cache=True)
-def normal(h, x, y, dx, dy):
-    """Unit upward normal (n_x, n_y, n_z) of the bilinear surface at (x, y)."""
+def height(h, x, y, dx, dy):
+    """Bilinear ground height (m) at (x, y) (m)."""
+    return height_at(h, x / dx, y / dy)
+
+
+@numba.njit(cache=True)
+def normal_at(h, col, row, dx, dy):
+    """Unit upward normal (n_x, n_y, n_z) of the bilinear surface at grid coordinates
+    (col, row) = (x/dx, y/dy)."""
     ny, nx = h.shape
-    c, fx = _cell_frac(x, dx, nx)
-    r, fy = _cell_frac(y, dy, ny)
+    c, fx = _cell_frac(col, nx)
+    r, fy = _cell_frac(row, ny)
     c1 = min(c + 1, nx - 1)
     r1 = min(r + 1, ny - 1)
     gx = ((h[r, c1] - h[r, c]) * (1.0 - fy) + (h[r1, c1] - h[r1, c]) * fy) / dx if c1 > c else 0.0
     gy = ((h[r1, c] - h[r, c]) * (1.0 - fx) + (h[r1, c1] - h[r, c1]) * fx) / dy if r1 > r else 0.0
     inv = 1.0 / math.sqrt(1.0 + gx * gx + gy * gy)
     return -gx * inv, -gy * inv, inv
+
+
+@numba.njit(cache=True)
+def normal(h, x, y, dx, dy):
+    """Unit upward normal (n_x, n_y, n_z) of the bilinear surface at (x, y) (m)."""
+    return normal_at(h, x / dx, y / dy, dx, dy)
 
 
 @numba.njit(cache=True)
@@ -107,27 +121,45 @@ def footprint_buffers(radius, dx, dy):
     return np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m)
 
 
-@numba.njit(cache=True)
-def apply_heightfield(h, valid, dx, dy, ex, ey, eq, er):
+@numba.njit(cache=True, inline="always")
+def _touches(y, radius, dy, ny, r_lo, r_hi):
+    """Whether the footprint of an impact at y (m) of radius R (m) may reach rows
+    [r_lo, r_hi) (conservative: it may say True for an impact that does not)."""
+    reach = max(radius / dy, 0.5) + 1.0  # the half-sphere, or the nearest cell when R is small
+    centre = y / dy
+    return centre + reach >= r_lo and centre - reach < r_hi
+
+
+@numba.njit(cache=True, parallel=True)
+def apply_heightfield(h, valid, dx, dy, ex, ey, eq, er, bands=1):
     """Apply the impacts (x, y, Q, R) to the heightfield ``h`` in place, in their order.
 
     Each impact changes the footprint cells by Δh = Q·√(R² − d²)/(A·Σ√(R² − d²)) (m): the
     scaled half-sphere of 003 Eq. 9, normalised by its sum over the cells rather than by
     2πR³/3, so that Σ Δh·A = Q exactly (mass conservation on a grid; the two agree for R ≫
     cell size). Q > 0 deposits, Q < 0 detaches (m³).
+
+    The rows are split into ``bands`` (one per thread) applied in parallel; each band goes
+    through all the impacts in order and changes only its own cells, so every cell receives
+    its changes in impact order: the result is the same, bit for bit, for any ``bands``.
     """
     area = dx * dy
+    ny = h.shape[0]
     rmax = 0.0
     for i in range(er.size):
         rmax = max(rmax, er[i])
-    rows, cols, weights = footprint_buffers(rmax, dx, dy)
-    for i in range(eq.size):
-        if eq[i] == 0.0:
-            continue
-        count, total = footprint(valid, ex[i], ey[i], er[i], dx, dy, rows, cols, weights)
-        scale = eq[i] / (area * total)
-        for k in range(count):
-            h[rows[k], cols[k]] += scale * weights[k]
+    bands = max(1, min(bands, ny))
+    for band in numba.prange(bands):
+        r_lo, r_hi = band * ny // bands, (band + 1) * ny // bands
+        rows, cols, weights = footprint_buffers(rmax, dx, dy)
+        for i in range(eq.size):
+            if eq[i] == 0.0 or not _touches(ey[i], er[i], dy, ny, r_lo, r_hi):
+                continue
+            count, total = footprint(valid, ex[i], ey[i], er[i], dx, dy, rows, cols, weights)
+            scale = eq[i] / (area * total)
+            for k in range(count):
+                if r_lo <= rows[k] < r_hi:
+                    h[rows[k], cols[k]] += scale * weights[k]
 
 
 @numba.njit(cache=True)

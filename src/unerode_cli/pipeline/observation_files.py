@@ -22,13 +22,12 @@ Incision rates (one row per period):
 
 from __future__ import annotations
 
-import csv
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from unerode_cli.analysis.incision import IncisionPeriod
 from unerode_cli.errors import InputError
+from unerode_cli.pipeline.csv_tables import table_number, table_rows
 
 TERRACE_COLUMNS = ("age_ka", "height_above_river_m", "uncertainty_m", "x", "y", "chainage_m", "name")
 TERRACE_REQUIRED = ("age_ka", "height_above_river_m")
@@ -52,57 +51,6 @@ class TerraceRow:
     chainage_m: float | None
 
 
-def _rows(path: Path, what: str, columns: tuple[str, ...], required: tuple[str, ...]):
-    """(line number, {column: text}) of every data row, the header checked."""
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = getattr(exc, "strerror", None) or type(exc).__name__
-        raise InputError(f"cannot read the {what} file {path}: {reason}.") from None
-    numbered = [(number, line) for number, line in enumerate(text.splitlines(), start=1)
-                if line.strip() and not line.lstrip().startswith("#")]
-    if not numbered:
-        raise InputError(f"the {what} file {path} has no header row.")
-    reader = csv.reader(line for _, line in numbered)
-    header = [name.strip() for name in next(reader)]
-    unknown = [name for name in header if name not in columns]
-    if unknown:
-        raise InputError(
-            f"{path}, line {numbered[0][0]}: unknown column '{unknown[0]}' "
-            f"(the {what} columns are {', '.join(columns)})."
-        )
-    missing = [name for name in required if name not in header]
-    if missing:
-        raise InputError(
-            f"{path}: the {what} file has no '{missing[0]}' column (required: {', '.join(required)})."
-        )
-    for (number, _), cells in zip(numbered[1:], reader, strict=False):
-        if len(cells) != len(header):
-            raise InputError(f"{path}, line {number}: {len(cells)} cells, the header has {len(header)}.")
-        row = {name: cell.strip() for name, cell in zip(header, cells, strict=True)}
-        for name in required:
-            if not row[name]:
-                raise InputError(f"{path}, line {number}: the required value '{name}' is missing.")
-        yield number, row
-
-
-def _number(
-    row: dict[str, str], name: str, path: Path, line: int, minimum: float | None = None
-) -> float | None:
-    text = row.get(name, "")
-    if not text:
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"{path}, line {line}: {name} must be a number, got '{text}'.") from None
-    if not math.isfinite(value):
-        raise InputError(f"{path}, line {line}: {name} must be a finite number, got '{text}'.")
-    if minimum is not None and value < minimum:
-        raise InputError(f"{path}, line {line}: {name} must be ≥ {minimum:g}, got {value:g}.")
-    return value
-
-
 def read_terraces(path: Path) -> list[TerraceRow]:
     """The terrace observations in ``path`` (see the module docstring for the columns).
 
@@ -110,18 +58,18 @@ def read_terraces(path: Path) -> list[TerraceRow]:
         InputError: naming the line of a row with a missing or malformed value.
     """
     terraces = []
-    for line, row in _rows(path, "observations", TERRACE_COLUMNS, TERRACE_REQUIRED):
-        x, y = _number(row, "x", path, line), _number(row, "y", path, line)
-        chainage = _number(row, "chainage_m", path, line, minimum=0.0)
+    for line, row in table_rows(path, "observations", TERRACE_COLUMNS, TERRACE_REQUIRED):
+        x, y = table_number(row, "x", path, line), table_number(row, "y", path, line)
+        chainage = table_number(row, "chainage_m", path, line, minimum=0.0)
         if (x is None) != (y is None):
             raise InputError(f"{path}, line {line}: give both x and y, or neither.")
         if x is not None and chainage is not None:
             raise InputError(f"{path}, line {line}: give the location as x, y or as chainage_m, not both.")
         terraces.append(TerraceRow(
             line=line,
-            age_ka=_number(row, "age_ka", path, line, minimum=0.0),
-            height_m=_number(row, "height_above_river_m", path, line),
-            uncertainty_m=_number(row, "uncertainty_m", path, line, minimum=0.0),
+            age_ka=table_number(row, "age_ka", path, line, minimum=0.0),
+            height_m=table_number(row, "height_above_river_m", path, line),
+            uncertainty_m=table_number(row, "uncertainty_m", path, line, minimum=0.0),
             name=row.get("name", ""),
             x=x, y=y, chainage_m=chainage,
         ))
@@ -137,17 +85,17 @@ def read_incision(path: Path) -> list[IncisionPeriod]:
         InputError: naming the line of a row with a missing or malformed value.
     """
     periods = []
-    for line, row in _rows(path, "incision", INCISION_COLUMNS, INCISION_REQUIRED):
-        start = _number(row, "from_ka", path, line, minimum=0.0)
-        end = _number(row, "to_ka", path, line, minimum=0.0)
+    for line, row in table_rows(path, "incision", INCISION_COLUMNS, INCISION_REQUIRED):
+        start = table_number(row, "from_ka", path, line, minimum=0.0)
+        end = table_number(row, "to_ka", path, line, minimum=0.0)
         if start == end:
             raise InputError(f"{path}, line {line}: from_ka and to_ka are the same age.")
         periods.append(IncisionPeriod(
             line=line,
             old_ka=max(start, end),
             young_ka=min(start, end),
-            rate_mm_per_ka=_number(row, "rate_mm_per_ka", path, line),
-            uncertainty_mm_per_ka=_number(row, "uncertainty_mm_per_ka", path, line, minimum=0.0),
+            rate_mm_per_ka=table_number(row, "rate_mm_per_ka", path, line),
+            uncertainty_mm_per_ka=table_number(row, "uncertainty_mm_per_ka", path, line, minimum=0.0),
             name=row.get("name", ""),
         ))
     if not periods:

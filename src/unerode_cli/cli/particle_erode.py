@@ -1,0 +1,114 @@
+"""`unerode-cli particle-erode`: erode a DEM with particles (003, Hartley et al. 2024)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from unerode_cli.cli.errors import reported_errors
+from unerode_cli.cli.options import (
+    Band,
+    Channel,
+    Cog,
+    CreationOptions,
+    Dtype,
+    DtypeOpt,
+    InputDem,
+    OutputDem,
+    Overwrite,
+    Preview,
+    Quiet,
+    Seed,
+    Verbose,
+)
+from unerode_cli.cli.parameter_options import with_parameter_options
+from unerode_cli.particles.parameters import PARAMETERS
+from unerode_cli.particles.presets import PRESETS
+
+PANEL = "Particle parameters (003 §3-4): a value given replaces the preset's; 'default' is the value a preset does not set"
+
+
+def _preset_lines() -> str:
+    """One paragraph per preset of 003 Table 1: what it does and its values."""
+    lines = []
+    for p in PRESETS.values():
+        values = ", ".join(f"{k} {v:g}" for k, v in p.values.items())
+        radius = f"{p.radius_cells:g}" + (f"-{p.radius_max_cells:g}" if p.radius_max_cells else "")
+        field = "" if p.field == "none" else f"; velocity field: {p.field} ({p.field_medium})"
+        note = f"; {p.note}" if p.note else ""
+        lines.append(f"{p.name}: {p.help}. R {radius} cells, {values}, {p.particles} particles × "
+                     f"{p.iterations} iterations, {p.emission} emission{field}{note}.")
+    return "\n\n".join(lines)
+
+
+@with_parameter_options({PANEL: PARAMETERS})
+def particle_erode(
+    source: InputDem,
+    output: OutputDem,
+    preset: Annotated[str, typer.Option("--preset", help="Preset of 003 Table 1: rain, river, landslide, coastal, wind, underwater or volcano (described above); every value can be overridden.", rich_help_panel="Run")] = "rain",
+    particles: Annotated[int | None, typer.Option("--particles", help="Particles emitted per iteration (default: the preset's).", rich_help_panel="Run")] = None,
+    iterations: Annotated[int | None, typer.Option("--iterations", help="Iterations; the terrain is updated after each (default: the preset's).", rich_help_panel="Run")] = None,
+    seed: Seed = 0,
+    threads: Annotated[int | None, typer.Option("--threads", help="Numba threads (default: all cores); the result does not depend on it.", rich_help_panel="Run")] = None,
+    emission: Annotated[str | None, typer.Option("--emission", help="rain (over the domain or --rain-mask) or source (--source); default: the preset's, source when --source is given.", rich_help_panel="Emission")] = None,
+    sources: Annotated[list[str] | None, typer.Option("--source", help="Source point X,Y in the DEM's CRS units (repeat for the vertices of a line), or a GeoJSON/WKT line file; default: the highest cell.", rich_help_panel="Emission")] = None,
+    spread: Annotated[float | None, typer.Option("--spread", help="Source particles start uniformly within this distance (m) of the point or line (default: the particle radius R).", rich_help_panel="Emission")] = None,
+    rain_mask: Annotated[Path | None, typer.Option("--rain-mask", help="Raster on the DEM's grid of rain weights (≥ 0, unitless): where rain particles start.", rich_help_panel="Emission")] = None,
+    emission_velocity: Annotated[str | None, typer.Option("--emission-velocity", help="Initial particle velocity VE,VN[,VU] (m/s, east, north, up; default 0).", rich_help_panel="Emission")] = None,
+    velocity: Annotated[str | None, typer.Option("--velocity", help="Medium velocity field (003 Eq. 8): uniform:VE,VN[,VU] (m/s), sin[:AMPLITUDE,WAVELENGTH] (a northward AMPLITUDE·sin(2πx/WAVELENGTH), m/s and m: 003 Table 1 meanders; default 1 m/s and a quarter of the DEM's width), or a 2/3-band raster on the DEM's grid (east, north[, up] m/s). Default: still medium.", rich_help_panel="Medium")] = None,
+    velocity_medium: Annotated[str | None, typer.Option("--velocity-medium", help="Where the velocity field acts: both, air (above --sea-level) or water (below); default: the preset's.", rich_help_panel="Medium")] = None,
+    sea_level: Annotated[float | None, typer.Option("--sea-level", help="Elevation (m) below which the medium is water (density rho_water, viscosity mu_water); default: air everywhere.", rich_help_panel="Medium")] = None,
+    layers: Annotated[Path | None, typer.Option("--layers", help="Multi-band raster on the DEM's grid of layer thicknesses (m), bottom layer first (003 §4.2); the base of the stack is the DEM minus their sum.", rich_help_panel="Layered terrain")] = None,
+    materials: Annotated[Path | None, typer.Option("--materials", help="Materials table (CSV: name, erodibility K_eps in Pa^-a, critical_stress tau_c in Pa); replaces --k-eps and --tau-c.", rich_help_panel="Layered terrain")] = None,
+    layer_materials: Annotated[str | None, typer.Option("--layer-materials", help="Material name of each band, bottom first, comma-separated (default: the band descriptions, else the table's rows in order).", rich_help_panel="Layered terrain")] = None,
+    deposit_material: Annotated[str | None, typer.Option("--deposit-material", help="Material that deposits become (default: the top layer's).", rich_help_panel="Layered terrain")] = None,
+    layers_out: Annotated[Path | None, typer.Option("--layers-out", help="Output layers (GeoTIFF, thicknesses in m, bottom first, the deposit layer on top, band descriptions = materials); default OUTPUT_layers.tif.", rich_help_panel="Layered terrain")] = None,
+    change_map: Annotated[Path | None, typer.Option("--change-map", help="Write the elevation change Δh (m): < 0 erosion, > 0 deposition.", rich_help_panel="Outputs")] = None,
+    paths: Annotated[Path | None, typer.Option("--paths", help="Write a GeoJSON of sampled particle paths: LineStrings x, y (DEM's CRS), z (m), with id, fate and times (s).", rich_help_panel="Outputs")] = None,
+    path_count: Annotated[int, typer.Option("--path-count", help="Paths sampled for --paths, evenly over the run's particles.", rich_help_panel="Outputs")] = 100,
+    path_stride: Annotated[int, typer.Option("--path-stride", help="Record a path point every this many time steps (and at death).", rich_help_panel="Outputs")] = 4,
+    band: Band = None,
+    channel: Channel = None,
+    dtype: DtypeOpt = Dtype.float32,
+    cog: Cog = False,
+    co: CreationOptions = None,
+    overwrite: Overwrite = False,
+    preview: Preview = None,
+    verbose: Verbose = 0,
+    quiet: Quiet = 0,
+    parameter_values: dict[str, str | None] | None = None,
+) -> None:
+    with reported_errors(verbose - quiet):
+        from unerode_cli.cli.common import say
+        from unerode_cli.cli.progress import progress_bar
+        from unerode_cli.pipeline.outputs import Outputs
+        from unerode_cli.pipeline.particle_job import ParticleJob, plan, run_job
+
+        job = ParticleJob(
+            source=source, outputs=Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview),
+            preset=preset, particles=particles, iterations=iterations, seed=seed,
+            emission=emission, sources=tuple(sources or ()), spread=spread, rain_mask=rain_mask,
+            emission_velocity=emission_velocity, velocity=velocity, velocity_medium=velocity_medium,
+            sea_level=sea_level, layers=layers, materials=materials, layer_materials=layer_materials,
+            deposit_material=deposit_material, layers_out=layers_out, change_map=change_map, paths=paths,
+            path_count=path_count, path_stride=path_stride, threads=threads, band=band, channel=channel,
+            parameter_values=parameter_values or {},
+        )
+        prepared = plan(job)
+        with progress_bar(prepared.iterations, "particle-erode", verbose - quiet) as advance:
+            summary = run_job(prepared, on_iteration=lambda done: advance(f"iteration {done}"),
+                              on_note=lambda text: say(text, verbose - quiet))
+        say(summary, verbose - quiet)
+
+
+particle_erode.__doc__ = (
+    "Erode a DEM with particles (003): each iteration emits particles (rain or a source) that "
+    "fall, bounce and roll under gravity, buoyancy, Stokes drag and an optional medium velocity, "
+    "detaching and depositing matter at every impact; the terrain is updated after each "
+    "iteration. Works on a heightfield or a layered terrain (--layers, --materials). Deterministic "
+    "for a --seed whatever the threads. The JSON sidecar holds the mass budget (m³: detached, "
+    "deposited, suspended, lost at edges, emitted) and counts.\n\nPresets (003 Table 1; R in "
+    "cells of the DEM):\n\n" + _preset_lines()
+)
