@@ -14,6 +14,7 @@ from unerode_cli.cli.convert import convert
 from unerode_cli.cli.diff import diff
 from unerode_cli.cli.erode import erode, unerode
 from unerode_cli.cli.flow import flow
+from unerode_cli.cli.glaciate import glaciate
 from unerode_cli.cli.hypsometry import hypsometry
 from unerode_cli.cli.info import info
 from unerode_cli.cli.particle_erode import particle_erode
@@ -30,7 +31,7 @@ app = typer.Typer(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 
-for command in (info, convert, preview, synth, flow, erode, unerode, diff, hypsometry):
+for command in (info, convert, preview, synth, flow, erode, unerode, diff, hypsometry, glaciate):
     app.command()(command)
 app.command("climate-run")(climate_run)
 app.command("compare-terraces")(compare_terraces)
