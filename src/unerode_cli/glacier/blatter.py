@@ -187,8 +187,8 @@ def basal_face_friction(sliding_c: np.ndarray, thickness: np.ndarray, periodic: 
 
 
 #: Floors of |D| (1/y) and |u_b| (m/y) in the Jacobi scaling of the unknowns (preconditioning only).
-_STRAIN_FLOOR = 1e-3
-_SLIDING_FLOOR = 1.0
+_STRAIN_FLOOR = 1e-6
+_SLIDING_FLOOR = 1e-3
 
 
 class _Objective:

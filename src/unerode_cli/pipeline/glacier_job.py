@@ -296,9 +296,15 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         _save_layer(prepared, final.thickness, job.ice, "m", stats, final.time)
     if flow is not None:
         _write_flow(prepared, flow, stats)
-    return (f"{COMMAND}: {result.steps} steps to t = {final.time:g} y; ice volume "
-            f"{coupled.ice_volume(final.thickness, grid) / 1e9:.4g} km³; removed {result.eroded:.4g} m³ of "
-            f"bedrock; wrote {job.output}")
+    summary = (f"{COMMAND}: {result.steps} steps to t = {final.time:g} y; ice volume "
+               f"{coupled.ice_volume(final.thickness, grid) / 1e9:.4g} km³; removed {result.eroded:.4g} m³ "
+               f"of bedrock; wrote {job.output}")
+    if result.unconverged:
+        summary += (f"\nnote: {result.unconverged} of {result.steps} velocity solves stopped at "
+                    f"{prepared.params.flow_max_iter} iterations (largest residual "
+                    f"{result.max_residual:.2g}, "
+                    f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
+    return summary
 
 
 def run_diagnostic(prepared: PreparedGlacierJob) -> str:
