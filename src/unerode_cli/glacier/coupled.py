@@ -180,9 +180,9 @@ def sia_flow(bed: np.ndarray, thickness: np.ndarray, grid: Grid, flow: blatter.F
     tau = flow.rho * flow.gravity * h * slope
     with np.errstate(divide="ignore", invalid="ignore"):
         speed = np.where(np.isinf(c) | (h <= 0), 0.0, (tau / c) ** (1.0 / (flow.sigma - 1.0)))
-        unit = np.where(slope > 0, 1.0 / np.where(slope > 0, slope, 1.0), 0.0)
-    ub, vb = -speed * sx * unit, -speed * sy * unit
-    sliding_d = h * speed * unit  # H·|u_b|/|∇s|: the sliding flux −D_s·∇s
+        per_slope = np.divide(speed, slope, out=np.zeros_like(speed), where=(speed > 0) & (slope > 0))
+    ub, vb = -per_slope * sx, -per_slope * sy
+    sliding_d = h * per_slope  # H·|u_b|/|∇s|: the sliding flux −D_s·∇s
     return FlowField((f.u_mean + ub, f.v_mean + vb), (f.u_surface + ub, f.v_surface + vb), (ub, vb),
                      diffusivity=f.diffusivity + sliding_d)
 
