@@ -7,11 +7,14 @@ unknowns, energy and gradient, restrict), i.e. one iteration's evaluation of the
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from harness import benchmark
-from unerode_cli.glacier import blatter, blatter_kernels
+from unerode_cli.glacier import blatter, blatter_kernels, coupled
 from unerode_cli.glacier.lattice import dof_map, ice_columns_with_halo, layer_elevations
+from unerode_cli.grid import Grid
 
 SIZES = (256, 512)
 DX = 50.0
@@ -55,9 +58,6 @@ STEPS_PER_RUN = {256: 3, 512: 1}
 
 
 def _ice_cap(n: int):
-    from unerode_cli.glacier import coupled
-    from unerode_cli.grid import Grid
-
     grid = Grid.full((n, n), COUPLED_SIDE / n)
     y, x = (np.mgrid[0:n, 0:n] + 0.5) / n - 0.5
     r = np.hypot(x, y)
@@ -69,8 +69,6 @@ def _ice_cap(n: int):
 
 
 def _coupled_case(n: int):
-    from unerode_cli.glacier import coupled
-
     holder = list(_ice_cap(n))
     steps = STEPS_PER_RUN[n]
 
@@ -90,10 +88,6 @@ for _n in SIZES:
 def _ismip_case(bed: np.ndarray, length: float):
     """A cold solve (rtol 1e-5) of ISMIP-HOM geometry ``bed`` (flat surface at 0 m, tilted 0.5°,
     frozen bed, A = 1e-16 Pa⁻³/y) on a periodic domain of side ``length`` (m)."""
-    import math
-
-    from unerode_cli.grid import Grid
-
     params = blatter.FlowParams(glen_a=1e-16, sliding_c=math.inf, n_layers=N_LAYERS)
     grid = Grid.full(bed.shape, length / bed.shape[1])
     return lambda: blatter.solve(bed, -bed, grid, params, boundary="periodic",

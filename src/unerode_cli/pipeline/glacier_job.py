@@ -297,7 +297,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
     if flow is not None:
         _write_flow(prepared, flow, stats)
     summary = (f"{COMMAND}: {result.steps} steps to t = {final.time:g} y; ice volume "
-               f"{coupled.ice_volume(final.thickness, grid) / 1e9:.4g} km³; removed {result.eroded:.4g} m³ "
+               f"{result.volumes[-1] / 1e9:.4g} km³; removed {result.eroded:.4g} m³ "
                f"of bedrock; wrote {job.output}")
     if result.unconverged:
         summary += (f"\nnote: {result.unconverged} of {result.steps} velocity solves stopped at "
