@@ -47,6 +47,7 @@ import numpy as np
 
 from unerode_cli.glacier import blatter, erosion, massbalance, multiscale, sia, transport
 from unerode_cli.grid import Grid
+from unerode_cli.processes.parameters import check_on_grid
 
 #: Relative residual ‖∇E‖/‖∇E(0)‖ the warm-started velocities must meet (see the module docstring).
 FLOW_RTOL = 0.03
@@ -123,7 +124,7 @@ class CoupledParams:
         self.flow.validate(shape)
         for spec in (*massbalance.PARAMETERS, *erosion.PARAMETERS):
             if spec.name != "ela":
-                _check_on_grid(spec, getattr(self, spec.name), shape)
+                check_on_grid(spec, getattr(self, spec.name), shape)
         if not 0.0 < self.flow_rtol < 1.0 or self.flow_max_iter < 0:
             raise ValueError("flow_rtol must be in (0, 1) and flow_max_iter ≥ 0")
         if self.iceflow == "sia":
@@ -131,12 +132,6 @@ class CoupledParams:
                 raise ValueError("SIA sliding needs a sliding exponent σ > 1")
             if np.any(np.asarray(self.flow.sliding_c) <= 0.0):
                 raise ValueError("SIA sliding needs a sliding coefficient C > 0 (inf: frozen bed)")
-
-
-def _check_on_grid(spec, value, shape: tuple[int, int]) -> None:
-    if np.ndim(value) and np.shape(value) != shape:
-        raise ValueError(f"parameter {spec.name} has shape {np.shape(value)}, the grid has {shape}")
-    spec.check(value)
 
 
 @dataclass(frozen=True)

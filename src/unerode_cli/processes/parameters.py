@@ -59,14 +59,22 @@ def check_fields(params: Any, specs: Sequence[ParamSpec], grid: Grid) -> None:
     nodata cells are not read). Raises ValueError with one sentence."""
     by_name = {spec.name: spec for spec in specs}
     for field in fields(params):
-        value = getattr(params, field.name)
-        if np.ndim(value):
-            if np.shape(value) != grid.shape:
-                raise ValueError(
-                    f"parameter {field.name} has shape {np.shape(value)}, the grid has {grid.shape}"
-                )
-            value = np.asarray(value)[grid.valid]
-        by_name[field.name].check(value)
+        check_on_grid(by_name[field.name], getattr(params, field.name), grid.shape, grid.valid)
+
+
+def check_on_grid(spec: ParamSpec, value: float | np.ndarray, shape: tuple[int, int],
+                  valid: np.ndarray | None = None) -> None:
+    """Check one parameter value against ``spec``: a raster must have the grid's ``shape``, and
+    its values (only those where ``valid``, when given) must be in range. Raises ValueError
+    with one sentence."""
+    if np.ndim(value):
+        if np.shape(value) != tuple(shape):
+            raise ValueError(
+                f"parameter {spec.name} has shape {np.shape(value)}, the grid has {tuple(shape)}"
+            )
+        if valid is not None:
+            value = np.asarray(value)[valid]
+    spec.check(value)
 
 
 #: The uplift rate, shared by every process that takes it: a combined run applies it once.
