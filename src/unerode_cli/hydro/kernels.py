@@ -148,10 +148,11 @@ def flood_into(z, valid, outlets, zf, descending, closed, first, following, heap
     Args:
         z, valid, outlets: as for ``priority_flood_epsilon``.
         zf: float64[ny*nx] set to the routing surface (m).
-        descending: int64[ny*nx] whose last ``count`` entries are set to the order.
+        descending: int[ny*nx] whose last ``count`` entries are set to the order.
         closed: bool[ny*nx], first: int[bucket_count(ny*nx)], following: int[ny*nx],
             heap: float64[ny*nx, 2], pit: int[ny*nx]: scratch, any content; the integer
-            arrays hold flat cell indices and may be int32 when ny*nx < 2^31.
+            arrays (``descending`` too) hold flat cell indices and may be int32 when
+            ny*nx < 2^31.
 
     Returns:
         count, the number of valid cells reached.
@@ -330,10 +331,10 @@ def steepest_of(z, i, h, off, inv_dist):
 
 
 @numba.njit(cache=True, inline="always")
-def spread_mfd(acc, z, i, h, off, inv_dist, value):
-    """Multiple flow directions at an interior cell ``i`` in one pass, for a 1-d ``acc``:
-    ``acc[i + off[k]] += frac[k] * value`` with the fractions of ``flow_fractions`` (000 Eq. 6),
-    computed with the same operations in the same order, so the shares are bit-identical."""
+def mfd_shares(z, i, h, off, inv_dist):
+    """The 8 fractions of ``flow_fractions`` (000 Eq. 6) for an interior cell ``i`` of routing
+    elevation ``h``, as a tuple, computed with the same operations in the same order, so the
+    shares are bit-identical; all 0 when no neighbour is lower."""
     s0 = slope_to(z, h, i + off[0], inv_dist[0])
     s1 = slope_to(z, h, i + off[1], inv_dist[1])
     s2 = slope_to(z, h, i + off[2], inv_dist[2])
@@ -344,14 +345,28 @@ def spread_mfd(acc, z, i, h, off, inv_dist, value):
     s7 = slope_to(z, h, i + off[7], inv_dist[7])
     total = 0.0 + s0 + s1 + s2 + s3 + s4 + s5 + s6 + s7
     scale = 1.0 / total if total > 0.0 else 0.0
-    acc[i + off[0]] += s0 * scale * value
-    acc[i + off[1]] += s1 * scale * value
-    acc[i + off[2]] += s2 * scale * value
-    acc[i + off[3]] += s3 * scale * value
-    acc[i + off[4]] += s4 * scale * value
-    acc[i + off[5]] += s5 * scale * value
-    acc[i + off[6]] += s6 * scale * value
-    acc[i + off[7]] += s7 * scale * value
+    return (s0 * scale, s1 * scale, s2 * scale, s3 * scale,
+            s4 * scale, s5 * scale, s6 * scale, s7 * scale)
+
+
+@numba.njit(cache=True, inline="always")
+def spread_mfd(acc, z, i, h, off, inv_dist, value):
+    """Multiple flow directions at an interior cell ``i`` in one pass, for a 1-d ``acc``:
+    ``acc[i + off[k]] += frac[k] * value`` with the fractions of ``mfd_shares``."""
+    shares = mfd_shares(z, i, h, off, inv_dist)
+    for k in range(8):
+        acc[i + off[k]] += shares[k] * value
+
+
+@numba.njit(cache=True, inline="always")
+def spread_mfd_pair(acc, value, acc2, value2, z, i, h, off, inv_dist):
+    """``spread_mfd`` of two quantities with the same shares (e.g. water and sediment), the
+    two updates of each receiver side by side."""
+    shares = mfd_shares(z, i, h, off, inv_dist)
+    for k in range(8):
+        j = i + off[k]
+        acc[j] += shares[k] * value
+        acc2[j] += shares[k] * value2
 
 
 @numba.njit(cache=True)
@@ -365,7 +380,7 @@ def accumulate_flow(zf, outlets, order, dx, dy, single, source):
     Args:
         zf: float64[ny, nx] routing surface (+inf on nodata).
         outlets: bool[ny, nx] sinks (they keep what they receive).
-        order: int64 flat indices of the valid cells, every cell before its receivers.
+        order: flat indices (int32 or int64) of the valid cells, every cell before its receivers.
         dx, dy: cell sizes (m).
         single: D8 instead of multiple flow directions.
         source: float64[ny*nx] per-cell contribution (e.g. p · cell area, m³/y), or

@@ -54,8 +54,9 @@ class Routing:
         filled: float64[ny, nx] routing surface (m): the elevation after priority-flood+ε,
             equal to it outside depressions; +inf on nodata.
         outlets: bool[ny, nx] sinks of the flow.
-        order: int64 flat indices of all valid cells sorted by descending routing surface,
-            so every cell comes before its receivers (000 Algorithm 1).
+        order: flat indices of all valid cells sorted by descending routing surface,
+            so every cell comes before its receivers (000 Algorithm 1); int32 below 2^31
+            cells (half the memory traffic of the serial sweeps that read it), else int64.
     """
 
     grid: Grid
@@ -110,7 +111,7 @@ def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method
     n = z.size
     index = np.int32 if n < 2**31 else np.int64  # cell indices in the work arrays
     filled = np.empty(grid.shape, dtype=np.float64)
-    descending = np.empty(n, dtype=np.int64)
+    descending = np.empty(n, dtype=index)
     count = kernels.flood_into(
         z,
         valid,
@@ -140,13 +141,19 @@ def accumulate(routing: Routing, source: float | np.ndarray) -> np.ndarray:
     (m³/y); with 1 it is the drainage area (m²). Nodata cells carry no flow (0).
     """
     grid = routing.grid
-    src = flat_field(source, grid.shape, "source") * grid.cell_area
     acc = np.zeros(grid.shape, dtype=np.float64)
     kernels.accumulate_into(
-        routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single, src,
-        acc.ravel(),
+        routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single,
+        cell_sources(grid, source), acc.ravel(),
     )
     return acc
+
+
+def cell_sources(grid: Grid, rate: float | np.ndarray) -> np.ndarray:
+    """What each cell adds to the flow: ``rate`` (per m², e.g. precipitation in m/y; scalar
+    or float[ny, nx]) × cell area, as the flat field the kernels read (float64[1] for a
+    scalar)."""
+    return flat_field(rate, grid.shape, "source") * grid.cell_area
 
 
 def drainage_area(routing: Routing) -> np.ndarray:

@@ -94,7 +94,7 @@ def debris_sweep(h, fixed, order, area, dx, dy, k_df, k_da, q_area, q_slope, s_c
     Args:
         h: float64[ny, nx] elevation h0 (m); read on cells of ``order`` only.
         fixed: bool[ny, nx] cells that keep their elevation (outlets, base level).
-        order: int64 flat indices of the valid cells, every cell before its receivers
+        order: flat indices (int32 or int64) of the valid cells, every cell before its receivers
             (``Routing.order``); cells not in it (nodata) are never read.
         area: float64[ny*nx] drainage area A (m²).
         dx, dy: east-west and north-south cell sizes (m).

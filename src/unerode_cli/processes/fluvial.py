@@ -150,7 +150,7 @@ def step(
         the change (Δh with the uplift U·dt included), the fluxes Q and Q_s and the mass budget.
     """
     from unerode_cli.hydro.fields import flat_field
-    from unerode_cli.hydro.routing import accumulate, route, scratch
+    from unerode_cli.hydro.routing import cell_sources, route, scratch
     from unerode_cli.processes import fluvial_kernels as fk
 
     params.validate(grid)
@@ -161,31 +161,26 @@ def step(
         raise ValueError("the routing was computed with other outlets than the ones given")
     h = np.ascontiguousarray(elevation, dtype=np.float64)
     shape = grid.shape
+    order = routing.order
     slope = scratch("fluvial.slope", (h.size,), np.float64)
     fk.slope_into(h, grid.valid, grid.dx, grid.dy, mode, slope)
-    # Two passes: Q first (it does not depend on the sediment), then the local terms in
-    # parallel, then the sediment sweep, whose serial chain holds no power or division.
-    discharge = accumulate(routing, params.precipitation)
-    erosion_field = scratch("fluvial.erosion", (h.size,), np.float64)
-    trapping = scratch("fluvial.trapping", (h.size,), np.float64)
-    fk.local_rates_into(discharge.ravel(), slope, flat_field(params.k, shape, "k"),
-                        flat_field(params.k_d, shape, "k_d"), float(params.m), float(params.n),
-                        erosion_field, trapping)
-    dh = np.zeros(shape, dtype=np.float64)
+    # The powers of the slope in parallel, then Algorithm 1's serial pass (Q, E, D, Qs), then
+    # Δh and the budget in parallel. Per-cell terms go by position in the order, so the
+    # serial pass reads them in sequence.
+    coef = scratch("fluvial.coef", order.shape, np.float64)
+    fk.erodibility_into(order, slope, flat_field(params.k, shape, "k"), float(params.n), coef)
+    discharge = np.zeros(shape, dtype=np.float64)
     sediment_flux = np.zeros(shape, dtype=np.float64)
-    erosion, deposition, outflow = fk.sediment_sweep_into(
-        routing.filled,
-        routing.outlets,
-        routing.order,
-        grid.dx,
-        grid.dy,
-        routing.single,
-        erosion_field,
-        trapping,
-        flat_field(params.uplift, shape, "uplift"),
-        float(dt),
-        dh.ravel(),
-        sediment_flux.ravel(),
+    net = scratch("fluvial.net", order.shape, np.float64)
+    fk.fluvial_sweep_into(
+        routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single,
+        cell_sources(grid, params.precipitation), coef, flat_field(params.k_d, shape, "k_d"),
+        float(params.m), discharge.ravel(), sediment_flux.ravel(), net,
+    )
+    dh = np.zeros(shape, dtype=np.float64)
+    erosion, deposition, outflow = fk.settle_into(
+        order, net, sediment_flux.ravel(), routing.outlets.ravel(),
+        flat_field(params.uplift, shape, "uplift"), float(dt), grid.cell_area, dh.ravel(),
     )
     removed, added = (erosion, deposition) if dt >= 0 else (deposition, erosion)
     budget = MassBudget(abs(dt) * removed, abs(dt) * added, dt * outflow)

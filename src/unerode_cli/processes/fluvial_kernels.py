@@ -6,6 +6,8 @@ value that is the same everywhere.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -15,7 +17,7 @@ from unerode_cli.hydro.kernels import (
     neighbour_offsets,
     row_of,
     spread,
-    spread_mfd,
+    spread_mfd_pair,
     steepest_of,
 )
 
@@ -89,54 +91,46 @@ def slope_into(h, valid, dx, dy, mode, s):
 
 
 @numba.njit(cache=True, parallel=True)
-def local_rates_into(q, slope, k, k_d, m, n, erosion, trapping):
-    """The per-cell terms of 000 Eq. 8 that do not depend on the sediment flux, in parallel.
-
-      erosion[i]  = E = K·Q^m·|∇h|^n      (m/y; 0 where Q or |∇h| is 0)
-      trapping[i] = K_d/Q                 (1/m²; the deposition rate is D = Q̃s·K_d/Q, Eq. 7)
-
-    where Q is 0 and K_d > 0, ``trapping`` is +inf (whatever arrives is deposited, up to the
-    cap of ``sediment_sweep_into``).
+def erodibility_into(order, slope, k, n, coef):
+    """coef[p] = K·|∇h|^n (m/y per (m³/y)^m) of cell ``order[p]``, in parallel: the part of
+    the stream power term E = K·Q^m·|∇h|^n (000 Eq. 1) that does not depend on the discharge,
+    laid out by position in ``order`` so that the serial sweep reads it in sequence.
 
     Args:
-        q: float64[ny*nx] discharge Q (m³/y); slope: float64[ny*nx] |∇h| (m/m).
-        k, k_d: fields K (m^(1−3m)·y^(m−1)) and K_d (m/y).
-        m, n: stream power exponents.
-        erosion, trapping: float64[ny*nx] outputs (any content on entry).
+        order: flat indices of the cells, donors first (``Routing.order``).
+        slope: float64[ny*nx] |∇h| (m/m); k: field K (m^(1−3m)·y^(m−1)); n: slope exponent.
+        coef: float64[order.size] output (any content on entry).
     """
-    for i in numba.prange(q.size):
-        qi = q[i]
+    for p in numba.prange(order.size):
+        i = order[p]
         s = slope[i]
-        e = 0.0
-        if qi > 0.0 and s > 0.0:
-            e = _at(k, i) * qi**m * (s if n == 1.0 else s**n)
-        erosion[i] = e
-        kd = _at(k_d, i)
-        trapping[i] = kd / qi if qi > 0.0 else (np.inf if kd > 0.0 else 0.0)
+        coef[p] = _at(k, i) * (s if n == 1.0 else (s**n if s > 0.0 else 0.0))
 
 
 @numba.njit(cache=True)
-def sediment_sweep_into(zf, outlets, order, dx, dy, single, erosion, trapping, uplift, dt, dh, qs):
-    """One step of 000 Eq. 8 in a single pass over the cells, donors first (000 Algorithm 1),
-    given the local terms of ``local_rates_into``. At each cell p, with every donor done:
+def fluvial_sweep_into(zf, outlets, order, dx, dy, single, source, coef, k_d, m, q, qs, net):
+    """Discharge and sediment flux of one step of 000 Eq. 8 in a single pass over the cells,
+    donors first (000 Algorithm 1). At each cell p, with every donor done:
 
+      Q     = source + Σ_donors α·Q                 (m³/y, 000 Eq. 5)
       Q̃s    = Σ_donors α·Qs                        (m³/y, arriving sediment flux)
+      E     = K·|∇h|^n·Q^m                          (m/y, 000 Eq. 1)
       D     = Q̃s·min(K_d/Q, 1/A)                  (deposition rate, m/y; A = dx·dy)
-      Δh    = dt·(U − E + D)                       (000 Eq. 8)
       Qs(p) = Q̃s + (E − D)·A ≥ 0                   (000 Eq. 7)
 
-    D is capped at what arrives (Q̃s/A) so that Qs is never negative. Outlets keep their
-    elevation (Δh = 0, no uplift) and pass on nothing: their Qs is what leaves the domain.
+    D is capped at what arrives (Q̃s/A) so that Qs is never negative; where Q is 0 and
+    K_d > 0 the cap applies. Water and sediment go to the receivers with the same shares as
+    ``unerode_cli.hydro.kernels.accumulate_into``. Outlets pass on nothing: their Q and Qs are
+    what leaves the domain there. ``settle_into`` turns E − D into Δh.
 
     Args:
         zf, outlets, order, dx, dy, single: the routing (see ``unerode_cli.hydro.kernels``).
-        erosion, trapping: float64[ny*nx] E (m/y) and K_d/Q (1/m²).
-        uplift: field U (m/y); dt: time step (y), negative backward in time.
-        dh: float64[ny*nx] set to Δh (m) on the valid non-outlet cells (others untouched).
-        qs: float64[ny*nx], all 0 on entry, set to Qs (m³/y).
-
-    Returns:
-        (Σ max(0, E − D)·A, Σ max(0, D − E)·A over free cells and Σ Q̃s over outlets), m³/y.
+        source: float64[ny*nx] p·A per cell (m³/y), or float64[1] for the same everywhere.
+        coef: float64[order.size] K·|∇h|^n by position in ``order`` (``erodibility_into``).
+        k_d: field K_d (m/y); m: discharge exponent.
+        q, qs: float64[ny*nx], all 0 on entry, set to Q and Qs (m³/y).
+        net: float64[order.size] set to E − D (m/y) by position in ``order`` (outlets: left
+            as they were).
     """
     ny, nx = zf.shape
     z = zf.ravel()
@@ -147,35 +141,76 @@ def sediment_sweep_into(zf, outlets, order, dx, dy, single, erosion, trapping, u
     inv_area = 1.0 / area
     inv_nx = 1.0 / nx
     frac = np.empty(8, dtype=np.float64)
-    erosion_rate = 0.0
-    deposition_rate = 0.0
-    outflow_rate = 0.0
+    uniform = source.size == 1
     for idx in range(order.size):
         i = order[idx]
-        arriving = qs[i]
+        water = q[i] + (source[0] if uniform else source[i])
+        q[i] = water
         if out[i]:
-            outflow_rate += arriving
             continue
-        net = erosion[i] - arriving * min(trapping[i], inv_area)
-        dh[i] = dt * (_at(uplift, i) - net)
-        leaving = max(arriving + net * area, 0.0)
+        arriving = qs[i]
+        c = coef[idx]
+        kd = _at(k_d, i)
+        if water > 0.0:
+            # Q^m as 2^(m·log2 Q): a few ulps from pow, and a third cheaper on this serial path.
+            erosion = c * math.exp2(m * math.log2(water)) if c > 0.0 else 0.0
+            trapping = min(kd / water, inv_area)
+        else:
+            erosion = 0.0
+            trapping = inv_area if kd > 0.0 else 0.0
+        rate = erosion - arriving * trapping
+        net[idx] = rate
+        leaving = max(arriving + rate * area, 0.0)
         qs[i] = leaving
-        erosion_rate += max(net, 0.0) * area
-        deposition_rate += max(-net, 0.0) * area
-        # The same shares as ``accumulate_into`` (one-pass paths for interior cells).
         r = row_of(i, inv_nx)
         col = i - r * nx
         if 0 < r < ny - 1 and 0 < col < nx - 1:
             if single:
                 best = steepest_of(z, i, z[i], off, inv_dist)
                 if best >= 0:
+                    q[i + off[best]] += water
                     qs[i + off[best]] += leaving
             else:
-                spread_mfd(qs, z, i, z[i], off, inv_dist, leaving)
+                spread_mfd_pair(q, water, qs, leaving, z, i, z[i], off, inv_dist)
         else:
             interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+            spread(q, i, off, frac, water, interior)
             spread(qs, i, off, frac, leaving, interior)
-    return erosion_rate, deposition_rate, outflow_rate
+
+
+@numba.njit(cache=True, parallel=True)
+def settle_into(order, net, qs, outlets, uplift, dt, area, dh):
+    """Elevation change and mass budget of a step after ``fluvial_sweep_into``, in parallel:
+
+      Δh = dt·(U − (E − D))                         (000 Eq. 8)
+
+    on the cells of ``order`` that are not outlets (outlets keep their elevation: no uplift).
+
+    Args:
+        order: flat indices of the cells (``Routing.order``).
+        net: float64[order.size] E − D (m/y) by position in ``order``.
+        qs: float64[ny*nx] sediment flux Qs (m³/y).
+        outlets: bool[ny*nx] outlets.
+        uplift: field U (m/y); dt: time step (y), negative backward in time.
+        area: cell area (m²).
+        dh: float64[ny*nx] set to Δh (m) on the cells of ``order`` that are not outlets.
+
+    Returns:
+        (Σ max(0, E − D)·A and Σ max(0, D − E)·A over those cells, Σ Qs over outlets), m³/y.
+    """
+    eroded = 0.0
+    deposited = 0.0
+    outflow = 0.0
+    for p in numba.prange(order.size):
+        i = order[p]
+        if outlets[i]:
+            outflow += qs[i]
+            continue
+        rate = net[p]
+        dh[i] = dt * (_at(uplift, i) - rate)
+        eroded += max(rate, 0.0) * area
+        deposited += max(-rate, 0.0) * area
+    return eroded, deposited, outflow
 
 
 @numba.njit(cache=True)
