@@ -22,13 +22,20 @@ $(STAMP): pyproject.toml Makefile
 
 install: $(STAMP)
 
-test: $(STAMP)
+# numba's on-disk cache does not notice a change in a kernel that another module's kernel
+# calls: start it afresh whenever a source file has changed (after a git pull, say)
+KERNELS := $(VENV)/.kernels
+$(KERNELS): $(STAMP) $(shell find src -name '*.py')
+	find src \( -name '*.nbi' -o -name '*.nbc' \) -delete
+	touch $(KERNELS)
+
+test: $(KERNELS)
 	$(BIN)/python -m pytest
 
-test-all: $(STAMP)
+test-all: $(KERNELS)
 	$(BIN)/python -m pytest -m ''
 
-demo: $(STAMP)
+demo: $(KERNELS)
 	mkdir -p $(DEMO)
 	$(BIN)/unerode-cli info $(SAMPLE)
 	$(BIN)/unerode-cli flow $(SAMPLE) $(DEMO)/discharge.tif --sea-level 0 \
@@ -48,7 +55,7 @@ demo: $(STAMP)
 	else echo "no chronology in $(DATA): climate-run demo skipped (make demo DATA=...)"; fi
 	@echo "demo outputs in $(DEMO)/ (previews: $(DEMO)/*.png)"
 
-bench: $(STAMP)
+bench: $(KERNELS)
 	$(BIN)/python bench/run.py
 
 lint: $(STAMP)
