@@ -22,20 +22,13 @@ $(STAMP): pyproject.toml Makefile
 
 install: $(STAMP)
 
-# numba's on-disk cache does not notice a change in a kernel that another module's kernel
-# calls: start it afresh whenever a source file has changed (after a git pull, say)
-KERNELS := $(VENV)/.kernels
-$(KERNELS): $(STAMP) $(shell find src -name '*.py')
-	find src \( -name '*.nbi' -o -name '*.nbc' \) -delete
-	touch $(KERNELS)
-
-test: $(KERNELS)
+test: $(STAMP)
 	$(BIN)/python -m pytest
 
-test-all: $(KERNELS)
+test-all: $(STAMP)
 	$(BIN)/python -m pytest -m ''
 
-demo: $(KERNELS)
+demo: $(STAMP)
 	mkdir -p $(DEMO)
 	$(BIN)/unerode-cli info $(SAMPLE)
 	$(BIN)/unerode-cli flow $(SAMPLE) $(DEMO)/discharge.tif --sea-level 0 \
@@ -55,7 +48,7 @@ demo: $(KERNELS)
 	else echo "no chronology in $(DATA): climate-run demo skipped (make demo DATA=...)"; fi
 	@echo "demo outputs in $(DEMO)/ (previews: $(DEMO)/*.png)"
 
-bench: $(KERNELS)
+bench: $(STAMP)
 	$(BIN)/python bench/run.py
 
 lint: $(STAMP)
