@@ -5,9 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from unerode_cli.hydro import outlet_mask, route
 from unerode_cli.pipeline.boundaries import Boundaries
 from unerode_cli.pipeline.registry import REGISTRY
 from unerode_cli.pipeline.runner import run
+from unerode_cli.processes import fluvial
 from unerode_cli.raster.terrain import Terrain
 from unerode_cli.synthetic import synthesize
 
@@ -46,3 +48,25 @@ def test_substeps_follow_the_tightest_process():
     _, report = run(h0, procs, dt, 1)
     assert report.substeps["thermal"] >= 3
     assert report.substeps["fluvial"] == pytest.approx(1, abs=2)
+
+
+def test_fluvial_step_kept_from_the_stability_check_is_the_step_asked_for():
+    h0 = synthesize("mountain", (48, 40), 400.0, 3)
+    terrain = Terrain(h0, 10.0, 10.0)
+    (process,) = processes(terrain, ["fluvial"])
+    grid = terrain.grid
+    outlets = outlet_mask(grid, "all")
+    routing = route(h0, grid, outlets)
+    params = process.params
+    expected_dt = fluvial.max_stable_dt(h0, grid, params, routing)
+    assert process.stable_dt(h0, 500.0) == pytest.approx(expected_dt, rel=1e-12)
+    for dt in (500.0, 250.0):  # the kept step, then a sub-step that must be computed anew
+        got = process.advance(h0, dt)
+        want = fluvial.step(h0, grid, outlets, params, dt, routing=routing)
+        np.testing.assert_array_equal(got.dh, want.dh)
+        assert got.eroded == pytest.approx(want.budget.eroded, rel=1e-12)
+    moved = h0 + process.advance(h0, 250.0).dh  # a new elevation is stepped, not the kept one
+    np.testing.assert_array_equal(
+        process.advance(moved, 250.0).dh,
+        fluvial.step(moved, grid, outlets, params, 250.0,
+                     routing=route(moved, grid, outlets)).dh)

@@ -13,6 +13,7 @@ from unerode_cli.processes.fluvial import (
     max_stable_dt,
     step,
 )
+from unerode_cli.processes.fluvial_kernels import DOWNSTREAM, slope_magnitude
 
 NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
@@ -311,3 +312,26 @@ def test_max_stable_dt_is_the_diagonal_cfl_bound() -> None:
     assert overshoot(bound) <= 1e-9  # monotone: no cell jumps below its neighbours
     assert overshoot(np.sqrt(2.0) * bound) > 0.1  # the bound K Q^m dt / Δx ≤ 1 is not enough
     assert max_stable_dt(h, grid, FluvialParams(k=0.0), routing) == np.inf
+
+
+def test_max_stable_dt_with_a_raster_k_and_n_other_than_one() -> None:
+    # The general bound: max over free cells of n·K·Q^m·|∇h|^(n−1) with the downstream slope.
+    size, dx = 24, 30.0
+    rng = np.random.default_rng(4)
+    rows = np.arange(size)[:, None]
+    h = 500.0 - 2.0 * rows + 3.0 * rng.random((size, size))
+    grid = Grid.full((size, size), dx)
+    outlets = outlet_mask(grid, "S")
+    k = 1e-5 * (1.0 + rng.random((size, size)))
+    params = FluvialParams(k=k, m=0.5, n=1.5)
+    routing = route(h, grid, outlets)
+    q = accumulate(routing, 1.0)
+    slope = slope_magnitude(h, grid.valid, dx, dx, DOWNSTREAM).reshape(h.shape)
+    free = ~outlets & (slope > 0.0)
+    speed = (1.5 * k * q**0.5 * slope**0.5)[free].max()
+    expected = 1.0 / (speed * np.hypot(1.0 / dx, 1.0 / dx))
+    assert max_stable_dt(h, grid, params, routing) == pytest.approx(expected, rel=1e-12)
+    # the discharge of a step on this elevation gives the same bound without routing again
+    q_step = step(h, grid, outlets, params, 10.0, routing=routing).discharge
+    assert max_stable_dt(h, grid, params, routing, discharge=q_step) == pytest.approx(
+        expected, rel=1e-12)

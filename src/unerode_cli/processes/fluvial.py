@@ -193,6 +193,7 @@ def max_stable_dt(
     params: FluvialParams,
     routing: Routing,
     courant: float = 1.0,
+    discharge: np.ndarray | None = None,
 ) -> float:
     """Largest |dt| (y) for which the explicit stream power term is stable (CFL, 000 §6).
 
@@ -204,7 +205,9 @@ def max_stable_dt(
         |dt| ≤ courant / (max c · sqrt(1/dx² + 1/dy²)),
 
     i.e. K·Q^m·|dt|·√2/Δx ≤ 1 on a square grid. Returns ``inf`` when nothing erodes. The
-    deposition term does not restrict the step (000 §6).
+    deposition term does not restrict the step (000 §6). ``discharge`` (m³/y, float[ny, nx]),
+    when given, is the discharge of ``routing`` (e.g. ``FluvialChange.discharge`` of a step
+    on this elevation) and saves computing it again.
     """
     from unerode_cli.hydro.fields import flat_field
     from unerode_cli.hydro.routing import accumulate, scratch
@@ -212,7 +215,9 @@ def max_stable_dt(
 
     params.validate(grid)
     h = np.ascontiguousarray(elevation, dtype=np.float64)
-    q = accumulate(routing, params.precipitation).ravel()
+    if discharge is None:
+        discharge = accumulate(routing, params.precipitation)
+    q = np.ascontiguousarray(discharge, dtype=np.float64).ravel()
     slope = scratch("fluvial.slope", (h.size,), np.float64)
     fk.slope_into(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM, slope)
     free = (grid.valid & ~routing.outlets).ravel()
