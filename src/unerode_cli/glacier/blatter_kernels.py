@@ -232,21 +232,30 @@ def objective(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2,
 
 
 @numba.njit(cache=True)
-def picard_diagonal(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, ureg2, periodic):
-    """Diagonal of the Picard (frozen-viscosity) Hessian of E with respect to the unknowns.
+def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, ureg2, periodic):
+    """The Picard (frozen-viscosity) Hessian of E restricted to each lattice column: the
+    preconditioner of the minimisation (a vertical-line relaxation; thin lattice cells couple
+    the levels of a column far more strongly than neighbouring columns).
 
-    Each cell adds w·(4α_x² + α_y² + α_z²) to the u unknown of each corner (x ↔ y for v), with
-    w = ∂E/∂|D|² at the current velocities and α_x, α_y, α_z the corner's weights in ∂x u,
-    ∂y u, ∂z u; each basal face adds w_s·2(1 + ∂x b²)/16 (w_s = ∂E/∂|u_b|_M²). ``eps2`` and
-    ``ureg2`` here are floors of |D|² and |u_b|_M² (they bound w and w_s). Used to scale the
-    unknowns (Jacobi preconditioning of L-BFGS).
+    A cell couples each u unknown of corners a, b through w·(4α_x,a α_x,b + α_y,a α_y,b +
+    α_z,a α_z,b) (x ↔ y for v), with w = ∂E/∂|D|² at the current velocities and α_x, α_y, α_z
+    the corner weights in ∂x u, ∂y u, ∂z u (module docstring); only pairs in one column (the
+    corner below and above, or one corner with itself) are kept. Each basal face adds
+    w_s·2(1 + ∂x b²)/16 (w_s = ∂E/∂|u_b|_M²) to its corners' diagonal. Collapsed levels that
+    share an unknown add their coupling to its diagonal. ``eps2`` and ``ureg2`` here are
+    floors of |D|² and |u_b|_M² (they bound w and w_s).
+
+    Returns:
+        (diag, upper), float64[2n] each over the unknowns x = [u_dof, v_dof]: the diagonal, and
+        the coupling of each unknown with the next one up its column (0 at the top).
     """
     u, v = expand(x, dof)
     nz, ny, nx = u.shape
+    n = x.size // 2
     ncx = nx if periodic else nx - 1
     ncy = ny if periodic else ny - 1
-    du = np.zeros_like(u)
-    dv = np.zeros_like(v)
+    diag = np.zeros(2 * n)
+    upper = np.zeros(2 * n)
     area = dx * dy
     for k in range(nz - 1):
         for j in range(ncy):
@@ -261,16 +270,30 @@ def picard_diagonal(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, 
                 dxy = 0.5 * (uy + vx)
                 d2 = 2.0 * (ux * ux + vy * vy + ux * vy + dxy * dxy + 0.25 * (uz * uz + vz * vz))
                 w = area * ct * 0.5 * b_visc * max(d2, eps2) ** (0.5 * p - 1.0)
-                for c in range(2):
-                    az = (2 * c - 1) / (4.0 * ct)
-                    for bb in range(2):
-                        jj = j1 if bb else j
-                        for a in range(2):
-                            ii = i1 if a else i
-                            alx = (2 * a - 1) / (4.0 * dx) - ax * az
-                            aly = (2 * bb - 1) / (4.0 * dy) - ay * az
-                            du[k + c, jj, ii] += w * (4.0 * alx * alx + aly * aly + az * az)
-                            dv[k + c, jj, ii] += w * (alx * alx + 4.0 * aly * aly + az * az)
+                az = 1.0 / (4.0 * ct)  # α_z is −az at the corner below, +az above
+                for bb in range(2):
+                    jj = j1 if bb else j
+                    for a in range(2):
+                        ii = i1 if a else i
+                        hx, hy = (2 * a - 1) / (4.0 * dx), (2 * bb - 1) / (4.0 * dy)
+                        xb, yb = hx + ax * az, hy + ay * az
+                        xt, yt = hx - ax * az, hy - ay * az
+                        below, above = dof[k, jj, ii], dof[k + 1, jj, ii]
+                        if below >= 0:
+                            diag[below] += w * (4.0 * xb * xb + yb * yb + az * az)
+                            diag[n + below] += w * (xb * xb + 4.0 * yb * yb + az * az)
+                        if above >= 0:
+                            diag[above] += w * (4.0 * xt * xt + yt * yt + az * az)
+                            diag[n + above] += w * (xt * xt + 4.0 * yt * yt + az * az)
+                        if below >= 0 and above >= 0:
+                            cu = w * (4.0 * xb * xt + yb * yt - az * az)
+                            cv = w * (xb * xt + 4.0 * yb * yt - az * az)
+                            if below != above:
+                                upper[below] += cu
+                                upper[n + below] += cv
+                            else:
+                                diag[below] += 2.0 * cu
+                                diag[n + below] += 2.0 * cv
     for j in range(ncy):
         j1 = j + 1 if j + 1 < ny else 0
         for i in range(ncx):
@@ -283,7 +306,130 @@ def picard_diagonal(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, 
             for bb in range(2):
                 jj = j1 if bb else j
                 for a in range(2):
-                    ii = i1 if a else i
-                    du[0, jj, ii] += ws * 2.0 * (1.0 + bx * bx) / 16.0
-                    dv[0, jj, ii] += ws * 2.0 * (1.0 + by * by) / 16.0
-    return restrict(du, dv, dof, x.size // 2)
+                    d = dof[0, jj, i1 if a else i]
+                    if d >= 0:
+                        diag[d] += ws * 2.0 * (1.0 + bx * bx) / 16.0
+                        diag[n + d] += ws * 2.0 * (1.0 + by * by) / 16.0
+    return diag, upper
+
+
+@numba.njit(cache=True)
+def column_chains(dof):
+    """int64[N+1, columns]: the distinct unknowns of every column that has any, bottom up
+    along axis 0, padded with −1 (collapsed levels share their unknown, a frozen bed has
+    none). Unknowns are numbered level by level, so a row of this table reads them nearly in
+    order."""
+    nz, ny, nx = dof.shape
+    chains = np.full((nz, ny * nx), -1, np.int64)
+    count = 0
+    for j in range(ny):
+        for i in range(nx):
+            m = 0
+            prev = -1
+            for k in range(nz):
+                d = dof[k, j, i]
+                if d < 0 or d == prev:
+                    continue
+                chains[m, count] = d
+                m += 1
+                prev = d
+            if m > 0:
+                count += 1
+    return np.ascontiguousarray(chains[:, :count])
+
+
+#: Smallest Thomas pivot, relative to its diagonal entry. Very thin cells (c_t → 0) make a
+#: column's matrix nearly singular along the column (α_z ≫ α_x), and the pivots then lose
+#: all their digits to cancellation; a floor keeps the preconditioner positive definite.
+PIVOT_FLOOR = 1e-10
+
+
+@numba.njit(cache=True, error_model="numpy")
+def column_solve(diag, upper, chains, r, out, work):
+    """out = T⁻¹·r for T tridiagonal along every column (``picard_columns``), u and v apart:
+    the Thomas algorithm, level by level over all columns at once (serial: a few ms, less
+    than waking threads for each level), pivots floored at PIVOT_FLOOR × their diagonal.
+    ``work`` (float64[2n]) is scratch."""
+    n = diag.size // 2
+    nz, ncol = chains.shape
+    for q in range(nz):
+        for task in range(2 * ncol):
+            half = task // ncol
+            col = task - half * ncol
+            d = chains[q, col]
+            if d < 0:
+                continue
+            off = half * n
+            pivot = diag[off + d]
+            rhs = r[off + d]
+            if q > 0:
+                below = chains[q - 1, col]
+                link = upper[off + below]
+                pivot -= link * work[off + below]
+                rhs -= link * out[off + below]
+            pivot = max(pivot, PIVOT_FLOOR * diag[off + d])
+            work[off + d] = upper[off + d] / pivot
+            out[off + d] = rhs / pivot
+    for q in range(nz - 2, -1, -1):
+        for task in range(2 * ncol):
+            half = task // ncol
+            col = task - half * ncol
+            d = chains[q, col]
+            above = chains[q + 1, col]
+            if d >= 0 and above >= 0:
+                off = half * n
+                out[off + d] -= work[off + d] * out[off + above]
+    return out
+
+
+@numba.njit(cache=True)
+def _dot(a, b):
+    """aᵀb."""
+    total = 0.0
+    for i in range(a.size):
+        total += a[i] * b[i]
+    return total
+
+
+@numba.njit(cache=True)
+def _add_scaled(y, alpha, x):
+    """y += α·x in place."""
+    for i in range(y.size):
+        y[i] += alpha * x[i]
+
+
+@numba.njit(cache=True)
+def lbfgs_direction(g, s_hist, y_hist, rho, count, newest, diag, upper, chains, out, work):
+    """The L-BFGS step −H·g by the two-loop recursion (Nocedal & Wright, Algorithm 7.4), with
+    the initial inverse Hessian γ·T⁻¹: T the column preconditioner (``picard_columns``,
+    ``column_solve``) and γ = sᵀy / yᵀT⁻¹y of the newest pair.
+
+    Args:
+        g: float64[2n] gradient.
+        s_hist, y_hist: float64[m, 2n] ring buffers of the last ``count`` steps s and gradient
+            changes y, the newest in row ``newest``; rho: float64[m], 1 / sᵀy of each row.
+        diag, upper, chains: the preconditioner; out, work: float64[2n] scratch.
+    """
+    m = s_hist.shape[0]
+    q = g.copy()
+    alphas = np.zeros(m)
+    for back in range(count):
+        row = (newest - back) % m
+        alphas[row] = rho[row] * _dot(s_hist[row], q)
+        _add_scaled(q, -alphas[row], y_hist[row])
+    column_solve(diag, upper, chains, q, out, work)
+    gamma = 1.0
+    if count > 0:
+        q[:] = out
+        column_solve(diag, upper, chains, y_hist[newest], out, work)
+        curvature = rho[newest] * _dot(y_hist[newest], out)
+        gamma = 1.0 / curvature if curvature > 0.0 else 1.0
+        out[:] = q
+    for i in range(out.size):
+        q[i] = gamma * out[i]
+    for forward in range(count):
+        row = (newest - count + 1 + forward) % m
+        _add_scaled(q, alphas[row] - rho[row] * _dot(y_hist[row], q), s_hist[row])
+    for i in range(q.size):
+        q[i] = -q[i]
+    return q
