@@ -357,7 +357,6 @@ def solve(
         # longer resolves the steps) twice in a row ends the minimisation.
         diag, upper = bk.picard_columns(x, dof, zeta, c_face, grid.dx, grid.dy, args[5], params.b, p,
                                         params.sigma, _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, periodic)
-        diag = np.where(diag > 0, diag, diag.max())  # unknowns no cell of positive volume touches
         obj = _Objective(bk.objective, args)
 
         def direction_of(g, s_hist, y_hist, rho, count, newest, diag=diag, upper=upper):

@@ -246,8 +246,9 @@ def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, u
     floors of |D|² and |u_b|_M² (they bound w and w_s).
 
     Returns:
-        (diag, upper), float64[2n] each over the unknowns x = [u_dof, v_dof]: the diagonal, and
-        the coupling of each unknown with the next one up its column (0 at the top).
+        (diag, upper), float64[2n] each over the unknowns x = [u_dof, v_dof]: the diagonal (the
+        largest one where no cell touches an unknown), and the coupling of each unknown with
+        the next one up its column (0 at the top).
     """
     u, v = expand(x, dof)
     nz, ny, nx = u.shape
@@ -310,6 +311,11 @@ def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, u
                     if d >= 0:
                         diag[d] += ws * 2.0 * (1.0 + bx * bx) / 16.0
                         diag[n + d] += ws * 2.0 * (1.0 + by * by) / 16.0
+    # unknowns that no cell of positive volume touches: any positive diagonal keeps T definite
+    largest = diag.max()
+    for d in range(2 * n):
+        if diag[d] <= 0.0:
+            diag[d] = largest
     return diag, upper
 
 
@@ -418,15 +424,12 @@ def lbfgs_direction(g, s_hist, y_hist, rho, count, newest, diag, upper, chains, 
         alphas[row] = rho[row] * _dot(s_hist[row], q)
         _add_scaled(q, -alphas[row], y_hist[row])
     column_solve(diag, upper, chains, q, out, work)
-    gamma = 1.0
+    q[:] = out
     if count > 0:
-        q[:] = out
         column_solve(diag, upper, chains, y_hist[newest], out, work)
         curvature = rho[newest] * _dot(y_hist[newest], out)
-        gamma = 1.0 / curvature if curvature > 0.0 else 1.0
-        out[:] = q
-    for i in range(out.size):
-        q[i] = gamma * out[i]
+        if curvature > 0.0:
+            q *= 1.0 / curvature
     for forward in range(count):
         row = (newest - count + 1 + forward) % m
         _add_scaled(q, alphas[row] - rho[row] * _dot(y_hist[row], q), s_hist[row])

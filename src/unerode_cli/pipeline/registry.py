@@ -61,25 +61,27 @@ class FluvialProcess:
     params: fluvial.FluvialParams
     scheme: str = "limiter"
     name: str = "fluvial"
-    _last: tuple[np.ndarray, float, fluvial.FluvialChange] | None = field(default=None, repr=False)
+    _last: tuple[Any, float, fluvial.FluvialChange] | None = field(default=None, repr=False)
 
-    def _step(self, elevation: np.ndarray, dt: float) -> fluvial.FluvialChange:
-        last = self._last
-        if last is not None and last[1] == dt and np.array_equal(last[0], elevation):
-            return last[2]
+    def _step(self, elevation: np.ndarray, dt: float) -> tuple[Any, fluvial.FluvialChange]:
+        # The surface hands out the same routing object as long as the elevation is unchanged,
+        # so it keys the kept step too.
         routing = self.surface.routing(elevation)
+        last = self._last
+        if last is not None and last[0] is routing and last[1] == dt:
+            return routing, last[2]
         change = fluvial.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
                               dt, routing=routing, scheme=self.scheme)
-        self._last = (elevation.copy(), dt, change)
-        return change
+        self._last = (routing, dt, change)
+        return routing, change
 
     def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
-        grid = self.surface.terrain.grid
-        return fluvial.max_stable_dt(elevation, grid, self.params, self.surface.routing(elevation),
-                                     discharge=self._step(elevation, dt).discharge)
+        routing, change = self._step(elevation, dt)
+        return fluvial.max_stable_dt(elevation, self.surface.terrain.grid, self.params, routing,
+                                     discharge=change.discharge)
 
     def advance(self, elevation: np.ndarray, dt: float) -> Change:
-        change = self._step(elevation, dt)
+        change = self._step(elevation, dt)[1]
         return _change(change.dh, change.budget)
 
 
