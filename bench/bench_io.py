@@ -12,8 +12,8 @@ from affine import Affine
 from pyproj import CRS
 
 from harness import benchmark
-from unerode_cli.raster.io import read_terrain, write_terrain
-from unerode_cli.raster.terrain import Terrain
+from unerode_cli.io.rasters import read_terrain, write_terrain
+from unerode_cli.io.terrain import Terrain
 
 SIZE = 4096
 FOLDER = Path(tempfile.mkdtemp(prefix="unerode-bench-"))

@@ -11,7 +11,7 @@ import rasterio
 from tests.cli.test_bad_input import assert_refused
 from tests.conftest import SHARED_DATA, run_cli, write_geotiff
 
-from unerode_cli.raster.io import read_terrain
+from unerode_cli.io.rasters import read_terrain
 
 LR04 = SHARED_DATA / "lr04" / "LR04stack.txt"
 SPRATT = SHARED_DATA / "sealevel" / "spratt2016.txt"

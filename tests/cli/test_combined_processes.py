@@ -10,7 +10,7 @@ import pytest
 from tests.cli.test_bad_input import assert_refused
 from tests.conftest import run_cli, write_geotiff
 
-from unerode_cli.raster.io import read_terrain
+from unerode_cli.io.rasters import read_terrain
 from unerode_cli.synthetic import synthesize
 
 

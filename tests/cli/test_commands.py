@@ -10,7 +10,7 @@ import pytest
 import rasterio
 from tests.conftest import SAMPLE_DEMS, SHARED_DATA, run_cli
 
-from unerode_cli.raster.io import read_terrain
+from unerode_cli.io.rasters import read_terrain
 
 
 def test_info_json_of_sample(tmp_path: Path) -> None:

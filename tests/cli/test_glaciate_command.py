@@ -17,7 +17,7 @@ from tests.glacier.test_glacier_ismip import DATA, FULL_STOKES, HIGHER_ORDER, X_
 
 from unerode_cli.glacier import blatter
 from unerode_cli.grid import Grid
-from unerode_cli.raster.io import read_terrain
+from unerode_cli.io.rasters import read_terrain
 
 DX = 100.0
 ELA = 3000.0

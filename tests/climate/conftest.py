@@ -6,7 +6,7 @@ import pytest
 from tests.conftest import SHARED_DATA
 
 from unerode_cli.climate.chronology import Series
-from unerode_cli.pipeline.chronology_files import read_series
+from unerode_cli.io.chronology_files import read_series
 
 LR04 = SHARED_DATA / "lr04" / "LR04stack.txt"
 MIS_BOUNDARIES = SHARED_DATA / "lr04" / "LR04_MISboundaries.txt"

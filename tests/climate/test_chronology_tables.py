@@ -15,7 +15,7 @@ from tests.climate.conftest import BINTANJA, LR04, SPRATT
 
 from unerode_cli.climate.chronology import YEARS_PER_KA, Series, parse_table
 from unerode_cli.errors import InputError
-from unerode_cli.pipeline.chronology_files import read_series
+from unerode_cli.io.chronology_files import read_series
 
 
 def one_sentence(message: str) -> bool:

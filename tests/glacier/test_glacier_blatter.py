@@ -11,7 +11,7 @@ import pytest
 from unerode_cli.glacier import blatter, blatter_kernels
 from unerode_cli.glacier.lattice import dof_map, ice_columns_with_halo, layer_elevations
 from unerode_cli.grid import Grid
-from unerode_cli.raster.io import read_terrain
+from unerode_cli.io.rasters import read_terrain
 
 RHO, G, A, N_GLEN = 910.0, 9.81, 1e-16, 3.0
 ALPHA = math.radians(0.5)

@@ -99,7 +99,7 @@ def climate_run(
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import say
         from unerode_cli.cli.progress import progress_bar
-        from unerode_cli.pipeline.climate_job import ClimateJob, plan, run_climate
+        from unerode_cli.jobs.climate_run import ClimateJob, plan, run_climate
 
         job = ClimateJob(
             source=source, output=output, chronology=chronology, from_ka=from_ka, to_ka=to_ka,

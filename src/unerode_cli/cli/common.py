@@ -5,8 +5,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from unerode_cli.raster.io import read_terrain
-from unerode_cli.raster.terrain import Terrain
+from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.terrain import Terrain
 
 
 def load(path: Path, band: int | None = None, channel: str | None = None) -> Terrain:

@@ -65,7 +65,7 @@ def compare_terraces(
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import say
         from unerode_cli.errors import InputError
-        from unerode_cli.pipeline.terrace_job import TerraceJob, run_compare
+        from unerode_cli.jobs.compare_terraces import TerraceJob, run_compare
 
         if fail_above is not None and observations is None:
             raise InputError("--fail-above gates the terrace RMSE: it needs --observations.")

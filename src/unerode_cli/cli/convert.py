@@ -41,7 +41,7 @@ def convert(
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import load
         from unerode_cli.errors import InputError
-        from unerode_cli.pipeline.outputs import Outputs, save
+        from unerode_cli.run.outputs import Outputs, save
 
         outputs = Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview)
         outputs.check(source)

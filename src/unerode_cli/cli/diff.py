@@ -26,8 +26,8 @@ def diff(
     """Difference of two DEMs; prints cells compared, RMSE, mean (bias), mean absolute, min, max
     (m) and the correlation of A and B, also kept in the JSON sidecar."""
     with reported_errors(verbose - quiet):
-        from unerode_cli.pipeline.diff_job import run_diff
-        from unerode_cli.pipeline.outputs import Outputs
+        from unerode_cli.jobs.diff import run_diff
+        from unerode_cli.run.outputs import Outputs
 
         stats = run_diff(a, b, Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview))
         typer.echo(f"cells {stats.cells}  RMSE {stats.rmse_m:.6g} m  mean {stats.mean_m:+.6g} m  "

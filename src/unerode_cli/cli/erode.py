@@ -82,7 +82,7 @@ def _command(backward: bool):
         with reported_errors(verbose - quiet):
             from unerode_cli.cli.common import say
             from unerode_cli.cli.progress import progress_bar
-            from unerode_cli.pipeline.erosion_job import ErosionJob, plan, run_job
+            from unerode_cli.jobs.erode import ErosionJob, plan, run_job
 
             job = ErosionJob(
                 backward=backward, source=source, output=output, process=process, dt=dt,

@@ -52,40 +52,9 @@ def flow(
 ) -> None:
     """Route water over a DEM (depressions are routed across, the DEM is not changed)."""
     with reported_errors(verbose - quiet):
-        import numpy as np
+        from unerode_cli.jobs.flow import FlowJob, output_dtype, run_flow
+        from unerode_cli.run.outputs import Outputs
 
-        from unerode_cli.cli.common import load
-        from unerode_cli.hydro import accumulate, route
-        from unerode_cli.hydro.directions import esri_d8_codes
-        from unerode_cli.pipeline.boundaries import boundaries_from_options
-        from unerode_cli.pipeline.outputs import Outputs, field_preview, save
-        from unerode_cli.pipeline.parameter_maps import resolve
-        from unerode_cli.processes.parameters import ParamSpec
-
-        dtype = "uint8" if what is What.receivers else "float32"
-        outs = Outputs.from_cli(output, dtype, cog, co, overwrite, preview)
-        outs.check(dem)
-        terrain = load(dem, band, channel)
-        bounds = boundaries_from_options(terrain, outlets, sea_level, dirichlet)
-        rain = resolve(ParamSpec("precipitation", "m/y", 1.0, "precipitation", 0.0, raster=True),
-                       precipitation, terrain)
-        routing = route(terrain.elevation, terrain.grid, bounds.outlets(terrain.elevation, terrain),
-                        method.value)
-        if what is What.receivers:
-            values, unit, nodata = esri_d8_codes(routing.receivers(), terrain.shape).astype(float), "D8 code", 255.0
-        else:
-            source = rain if what is What.discharge else 1.0
-            values = accumulate(routing, source)
-            unit, nodata = ("m3/y" if what is What.discharge else "m2"), -9999.0
-        values = np.where(terrain.nodata_mask, np.nan, values)
-        layer = terrain.with_elevation(values)
-        layer.nodata, layer.tags["UNIT"] = nodata, unit
-        stats = {"outlet_cells": int(routing.outlets.sum()),
-                 "max": float(np.nanmax(values)), "unit": unit}
-        save(layer, outs, "flow",
-                   {"input": dem, "what": what.value, "method": method.value,
-                    "precipitation": precipitation, "outlets": outlets, "sea_level": sea_level,
-                    "dirichlet": dirichlet}, stats, elevation_preview=False)
-        if preview is not None:
-            field_preview(values, terrain, preview, f"{what.value} ({unit})",
-                          log=what is not What.receivers, title=output.name)
+        outputs = Outputs.from_cli(output, output_dtype(what.value), cog, co, overwrite, preview)
+        run_flow(FlowJob(dem, outputs, what.value, method.value, precipitation, outlets, sea_level,
+                         dirichlet, band, channel))

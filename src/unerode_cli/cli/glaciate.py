@@ -87,7 +87,7 @@ def glaciate(
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import say
         from unerode_cli.cli.progress import progress_bar
-        from unerode_cli.pipeline.glacier_job import GlacierJob, plan, run_diagnostic, run_job
+        from unerode_cli.jobs.glaciate import GlacierJob, plan, run_diagnostic, run_job
 
         job = GlacierJob(
             source=dem, output=output, ela=ela, duration=duration, dt=dt, iceflow=iceflow.value,

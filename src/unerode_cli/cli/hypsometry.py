@@ -31,7 +31,7 @@ def hypsometry(
     """Distribution of elevations: share of the area per elevation bin, hypsometric integral
     HI = (mean − min)/(max − min) and hypsometric maximum (the fullest bin), printed per DEM."""
     with reported_errors(verbose - quiet):
-        from unerode_cli.pipeline.hypsometry_job import compute, write
+        from unerode_cli.jobs.hypsometry import compute, write
 
         results = compute(dems, bins, normalise.value)
         write(results, csv, plot, overwrite)

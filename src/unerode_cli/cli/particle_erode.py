@@ -83,8 +83,8 @@ def particle_erode(
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import say
         from unerode_cli.cli.progress import progress_bar
-        from unerode_cli.pipeline.outputs import Outputs
-        from unerode_cli.pipeline.particle_job import ParticleJob, plan, run_job
+        from unerode_cli.jobs.particle_erode import ParticleJob, plan, run_job
+        from unerode_cli.run.outputs import Outputs
 
         job = ParticleJob(
             source=source, outputs=Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview),

@@ -2,8 +2,8 @@
 
 The spec format is described in :mod:`unerode_cli.pipeline.spec`, the state file and resume
 rules in :mod:`unerode_cli.pipeline.pipeline_run`. This module only parses the command line
-and tells the pipeline layer what each subcommand accepts (read from the click command behind
-the typer app), since nothing below ``cli`` may import typer or click.
+and tells the pipeline layer what each subcommand accepts (read from the click commands of
+:mod:`unerode_cli.cli.commands`), since nothing below ``cli`` may import typer or click.
 """
 
 from __future__ import annotations
@@ -94,14 +94,12 @@ def run(
 
 def command_schemas() -> dict[str, Any]:
     """What each unerode-cli subcommand accepts, as :class:`CommandSchema` objects."""
-    from unerode_cli.cli.app import app
+    from unerode_cli.cli.commands import register
     from unerode_cli.pipeline.spec import CommandSchema
 
-    group = typer.main.get_command(app)
+    group = typer.main.get_command(register(typer.Typer()))
     schemas: dict[str, Any] = {}
     for name, command in getattr(group, "commands", {}).items():
-        if hasattr(command, "commands"):       # a sub-app such as `pipeline` itself
-            continue
         arguments, options = [], {}
         for param in command.params:
             if param.param_type_name == "argument":

@@ -29,8 +29,8 @@ def preview(
 
         from unerode_cli.cli.common import load
         from unerode_cli.errors import InputError
-        from unerode_cli.pipeline.outputs import preview as write_preview
-        from unerode_cli.raster.paths import check_output
+        from unerode_cli.io.paths import check_output
+        from unerode_cli.run.outputs import preview as write_preview
 
         check_output(png, overwrite, (dem,))
         if png.suffix.lower() != ".png":

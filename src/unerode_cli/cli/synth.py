@@ -47,41 +47,8 @@ def synth(
 ) -> None:
     """Generate a synthetic DEM (the same seed gives the same terrain)."""
     with reported_errors(verbose - quiet):
-        import numpy as np
-
-        from unerode_cli.errors import InputError
-        from unerode_cli.pipeline.outputs import Outputs, save
-        from unerode_cli.raster.cellsize import cell_size_metres
-        from unerode_cli.raster.georef import centred_transform, parse_crs
-        from unerode_cli.raster.terrain import Terrain
-        from unerode_cli.synthetic import synthesize
+        from unerode_cli.jobs.synth import SynthJob, run_synth
+        from unerode_cli.run.outputs import Outputs
 
         outputs = Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview)
-        outputs.check()
-        if not dx > 0:
-            raise InputError(f"--dx must be a positive cell size in metres, got {dx}.")
-        crs_obj = parse_crs(crs)
-        centre_xy = _parse_centre(centre)
-        transform = centred_transform(crs_obj, (size, size), dx, centre_xy)
-        elevation = synthesize(kind.value, (size, size), relief, seed)
-        if sea_nodata:
-            elevation = np.where(elevation < 0.0, np.nan, elevation)
-        wkt = crs_obj.to_wkt()
-        cell = cell_size_metres(wkt, transform, (size, size), str(output))
-        terrain = Terrain(elevation, cell.dx, cell.dy, wkt, transform,
-                          -9999.0 if sea_nodata else None, {"AREA_OR_POINT": "Area", "UNIT": "metre"})
-        save(terrain, outputs, "synth",
-             {"kind": kind.value, "size": size, "dx": dx, "relief": relief, "crs": crs,
-              "centre": centre, "sea_nodata": sea_nodata}, seed=seed)
-
-
-def _parse_centre(text: str | None) -> tuple[float, float] | None:
-    from unerode_cli.errors import InputError
-
-    if text is None:
-        return None
-    try:
-        x, y = (float(v) for v in text.split(","))
-    except ValueError:
-        raise InputError(f"--centre expects X,Y (two numbers), got '{text}'.") from None
-    return (x, y)
+        run_synth(SynthJob(outputs, kind.value, size, dx, relief, seed, crs, centre, sea_nodata))

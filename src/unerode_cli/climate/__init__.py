@@ -1,6 +1,6 @@
 """Climate forcing from a chronology (000 §5, DESIGN §7): tables of (age, value), sea level,
 climate phases and the parameter schedule. Pure functions: no file is opened here (the pipeline
-reads chronology files with ``unerode_cli.pipeline.chronology_files.read_series``).
+reads chronology files with ``unerode_cli.io.chronology_files.read_series``).
 
 Ages are in ka (thousands of years before present) in these table functions, by nature;
 the rest of the project counts time in years (``YEARS_PER_KA``).

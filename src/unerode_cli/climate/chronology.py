@@ -10,7 +10,7 @@ convert with :data:`YEARS_PER_KA`. Values keep the table's unit (‰ for δ18O, 
 to present sea level for sea level).
 
 This module is pure: it parses text it is given (``parse_table``) and never opens a file; the
-pipeline layer reads files (``unerode_cli.pipeline.chronology_files``).
+pipeline layer reads files (``unerode_cli.io.chronology_files``).
 """
 
 from __future__ import annotations

@@ -1,1 +1,1 @@
-"""Runs: parameter maps, the time-stepping runner, snapshots and provenance."""
+"""Pipeline specs (YAML chains of subcommands) and the pipeline runner."""

@@ -42,8 +42,9 @@ from typing import Any
 
 from unerode_cli import __version__
 from unerode_cli.errors import InputError
+from unerode_cli.io.json_files import read_json, write_json
+from unerode_cli.io.paths import file_sha256
 from unerode_cli.pipeline.spec import ResolvedPipeline, ResolvedStep
-from unerode_cli.raster.paths import atomic_path
 
 STATE_VERSION = 1
 
@@ -65,17 +66,6 @@ class StepFailed(Exception):
 
 # ---------------------------------------------------------------------------------------------
 # Hashes and the state file.
-
-def file_sha256(path: Path) -> str:
-    """sha256 of a file's bytes (``dir`` for a folder)."""
-    if path.is_dir():
-        return "dir"
-    digest = hashlib.sha256()
-    with path.open("rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
 
 def step_key(step: ResolvedStep, workdir: Path) -> str:
     """The content hash that decides whether a finished step is still up to date."""
@@ -110,11 +100,11 @@ class State:
         if not path.exists():
             return cls(path)
         try:
-            raw = json.loads(path.read_text(encoding="utf-8"))
+            raw = read_json(path)
             steps, owned = raw["steps"], raw["owned"]
             if raw.get("version") != STATE_VERSION or not isinstance(steps, dict):
                 raise ValueError
-        except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+        except (OSError, ValueError, KeyError, TypeError, UnicodeDecodeError):
             raise InputError(f"state file {path} is damaged; delete it to run every step again.") from None
         return cls(path, steps, set(owned))
 
@@ -122,8 +112,7 @@ class State:
         """Write the state atomically (a crash leaves the previous state whole)."""
         payload = {"version": STATE_VERSION, "unerode_cli": __version__,
                    "steps": self.steps, "owned": sorted(self.owned)}
-        with atomic_path(self.path) as tmp:
-            tmp.write_text(json.dumps(payload, indent=2) + "\n", encoding="utf-8")
+        write_json(self.path, payload)
 
     def up_to_date(self, step: ResolvedStep, key: str, workdir: Path) -> bool:
         """Whether a finished record matches ``key`` and its outputs are still unchanged."""

@@ -60,7 +60,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from unerode_cli.errors import InputError
-from unerode_cli.pipeline.yaml_files import read_yaml_mapping
+from unerode_cli.io.yaml_files import read_yaml_mapping
 
 Scalar = str | int | float | bool
 NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$"

@@ -1,0 +1,36 @@
+"""The table of unerode-cli subcommands (name → typer command function), registered on the
+root app by :mod:`unerode_cli.cli.app` and read by ``pipeline run`` to learn what each
+subcommand accepts."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import typer
+
+from unerode_cli.cli.climate_run import climate_run
+from unerode_cli.cli.compare_terraces import compare_terraces
+from unerode_cli.cli.convert import convert
+from unerode_cli.cli.diff import diff
+from unerode_cli.cli.erode import erode, unerode
+from unerode_cli.cli.flow import flow
+from unerode_cli.cli.glaciate import glaciate
+from unerode_cli.cli.hypsometry import hypsometry
+from unerode_cli.cli.info import info
+from unerode_cli.cli.particle_erode import particle_erode
+from unerode_cli.cli.preview import preview
+from unerode_cli.cli.synth import synth
+
+COMMANDS: dict[str, Callable[..., None]] = {
+    "info": info, "convert": convert, "preview": preview, "synth": synth, "flow": flow,
+    "erode": erode, "unerode": unerode, "diff": diff, "hypsometry": hypsometry,
+    "glaciate": glaciate, "climate-run": climate_run, "compare-terraces": compare_terraces,
+    "particle-erode": particle_erode,
+}
+
+
+def register(app: typer.Typer) -> typer.Typer:
+    """Add every subcommand of :data:`COMMANDS` to ``app`` (in table order); returns ``app``."""
+    for name, command in COMMANDS.items():
+        app.command(name)(command)
+    return app

@@ -1,0 +1,22 @@
+"""Checkpoints of long runs: named arrays in one ``.npz`` file, written atomically."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from unerode_cli.io.paths import atomic_path
+
+
+def write_checkpoint(path: Path, **arrays: object) -> None:
+    """Save ``arrays`` (NumPy arrays, numbers or strings) to ``path`` atomically, so a crash
+    leaves the previous checkpoint whole."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as handle:
+        np.savez(handle, **arrays)
+
+
+def read_checkpoint(path: Path) -> dict[str, np.ndarray]:
+    """Every array of a checkpoint written by :func:`write_checkpoint` (no pickles)."""
+    with np.load(path, allow_pickle=False) as saved:
+        return {name: saved[name] for name in saved.files}

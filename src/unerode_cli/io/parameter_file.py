@@ -1,0 +1,82 @@
+"""Process parameters from a YAML file (``--params FILE``), for runs with many of them.
+
+The file is a mapping of parameter names (or the papers' symbols, e.g. ``K_d``) to a number or
+a raster path; parameters may also be grouped under the name of the process they belong to::
+
+    uplift: 2.5e-5
+    fluvial:
+      K: 2.0e-5
+      K_d: maps/kd.tif        # relative paths are read from the YAML file's folder
+    thermal:
+      k_th: 0.008
+      talus_angle: 32
+
+Values given on the command line win over the file's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from unerode_cli.errors import InputError
+from unerode_cli.io.yaml_files import read_yaml_mapping
+from unerode_cli.processes.parameters import ParamSpec
+
+
+def read_parameter_file(path: Path, processes: Mapping[str, Sequence[ParamSpec]]) -> dict[str, str]:
+    """Parameter values (name → text: a number or an absolute raster path) read from ``path``.
+
+    Args:
+        path: the YAML file.
+        processes: the processes of the run and their parameter declarations; a key must be a
+            parameter of one of them, or the name of one of them holding such parameters.
+
+    Raises:
+        InputError: unreadable or malformed file, unknown name, or a value that is neither a
+            number nor a path.
+    """
+    document = read_yaml_mapping(path, "the parameter file",
+                                 "a mapping of parameter names to values")
+    every = _lookup([spec for specs in processes.values() for spec in specs])
+    values: dict[str, str] = {}
+    for key, value in document.items():
+        if isinstance(key, str) and key in processes and isinstance(value, dict):
+            own = _lookup(processes[key])
+            for name, item in value.items():
+                values[_name(own, name, path, f"process {key}")] = _text(item, name, path)
+        else:
+            values[_name(every, key, path, "the processes of this run")] = _text(value, key, path)
+    return values
+
+
+def _lookup(specs: Sequence[ParamSpec]) -> dict[str, str]:
+    """Every accepted spelling (name, symbol, with - or _) → parameter name."""
+    names = {}
+    for spec in specs:
+        for spelling in (spec.name, spec.symbol):
+            if spelling:
+                names[spelling] = spec.name
+                names[spelling.replace("_", "-")] = spec.name
+    return names
+
+
+def _name(lookup: dict[str, str], key: Any, path: Path, owner: str) -> str:
+    if not isinstance(key, str) or key not in lookup:
+        known = ", ".join(sorted({v for v in lookup.values()}))
+        raise InputError(f"the parameter file {path} names '{key}', which is not a parameter of "
+                         f"{owner} (known: {known}).")
+    return lookup[key]
+
+
+def _text(value: Any, key: Any, path: Path) -> str:
+    """A number as text, or a raster path made absolute from the file's folder."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise InputError(f"parameter '{key}' in {path} must be a number or a raster path.")
+    if isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return str((path.parent / value).resolve())
+    return str(value)

@@ -1,0 +1,1 @@
+"""One module per subcommand: plan (check everything, read inputs), run, write."""

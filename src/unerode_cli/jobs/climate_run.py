@@ -1,0 +1,383 @@
+"""A `climate-run` job: (un)erode a DEM step by step along a paleo-climate chronology
+(000 §5, DESIGN §7), with sea-level Dirichlet boundaries, snapshots at asked ages, a timeline,
+checkpoints and resume.
+
+Ages are in ka at the edges (options, files, tags) and converted to years inside. A step of
+``dt`` years goes from age a to a ± dt/1000 ka; its phase and scheduled parameters are those of
+its middle age, and the boundary nodes are set, before the step, to their elevation at the
+step's end age: h_b(t) = h_b(start) + (sea(t) − sea(start)), so that after each step they follow
+the sea level exactly.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from unerode_cli import __version__
+from unerode_cli.climate.chronology import Series
+from unerode_cli.climate.phases import PhaseThresholds, classify
+from unerode_cli.climate.schedule import Schedule, downstream_mask
+from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, sea_level
+from unerode_cli.errors import InputError
+from unerode_cli.io.checkpoints import read_checkpoint, write_checkpoint
+from unerode_cli.io.chronology_files import read_series
+from unerode_cli.io.csv_tables import write_table
+from unerode_cli.io.grid_rasters import load_on_grid
+from unerode_cli.io.paths import atomic_path, check_output, file_sha256
+from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.io.yaml_files import read_yaml_mapping
+from unerode_cli.run.boundaries import Boundaries, boundaries_from_options
+from unerode_cli.run.outputs import AGE_TAG, PHASE_TAG, SEA_TAG, TIME_TAG, Outputs, save
+from unerode_cli.run.parameter_maps import resolve
+from unerode_cli.run.registry import (
+    REGISTRY,
+    build_processes,
+    given_values,
+    parse_process_list,
+    thermal_constraints,
+)
+from unerode_cli.run.runner import run
+from unerode_cli.viz.chronology_plot import save_chronology_plot
+
+COMMAND = "climate-run"
+
+
+@dataclass(frozen=True)
+class ClimateJob:
+    """What the user asked for; ages in ka, ``dt`` in years."""
+
+    source: Path
+    output: Path
+    chronology: Path
+    from_ka: float
+    to_ka: float
+    chronology_kind: str = "d18o"
+    sea_level_file: Path | None = None
+    d18o_mapping: tuple[float, float] | None = None
+    direction: str | None = None
+    dt: float = 1000.0
+    process: str = "fluvial,thermal"
+    snapshots_ka: tuple[float, ...] = ()
+    schedule_file: Path | None = None
+    downstream_below: float | None = None
+    downstream_mask: Path | None = None
+    outlets: str = "all"
+    dirichlet: Path | None = None
+    sea_outlets: bool = True
+    checkpoint_every: int = 10
+    resume: bool = False
+    max_steps: int | None = None
+    allow_substeps: bool = True
+    scheme: str = "limiter"
+    method: str = "mfd"
+    constraints: str = "slope,convexity,rate"
+    dtype: str = "float32"
+    cog: bool = False
+    co: list[str] | None = None
+    overwrite: bool = False
+    preview: Path | None = None
+    parameter_values: dict[str, str | None] = field(default_factory=dict)
+
+    @property
+    def backward(self) -> bool:
+        return self.to_ka > self.from_ka
+
+
+@dataclass
+class Forcing:
+    """Per-step forcing: end ages (ka), middle-age phases and sea levels (m), end sea levels."""
+
+    end_ka: np.ndarray
+    mid_ka: np.ndarray
+    phase: np.ndarray
+    sea_mid: np.ndarray
+    sea_end: np.ndarray
+    sea_start: float
+
+
+@dataclass
+class PreparedClimateRun:
+    job: ClimateJob
+    terrain: Terrain
+    names: list[str]
+    base_values: dict[str, Any]
+    schedule: Schedule
+    forcing: Forcing
+    boundary_nodes: np.ndarray
+    downstream: np.ndarray | None
+    steps: int
+    outputs: Outputs
+    chronology: Series
+    fingerprint: str
+
+
+def timeline_path(output: Path) -> Path:
+    return output.with_name(f"{output.stem}_timeline.csv")
+
+
+def chronology_png_path(output: Path) -> Path:
+    return output.with_name(f"{output.stem}_chronology.png")
+
+
+def checkpoint_path(output: Path) -> Path:
+    return output.with_name(f".{output.name}.checkpoint.npz")
+
+
+def snapshot_path(output: Path, age_ka: float) -> Path:
+    """``past.tif`` at 12 ka → ``past_12ka.tif``."""
+    return output.with_name(f"{output.stem}_{age_ka:g}ka{output.suffix}")
+
+
+def _steps(job: ClimateJob) -> int:
+    if not (np.isfinite(job.dt) and job.dt > 0):
+        raise InputError(f"--dt must be a positive number of years, got {job.dt:g}.")
+    if job.from_ka == job.to_ka:
+        raise InputError("--from and --to are the same age: nothing to run.")
+    wanted = "backward" if job.backward else "forward"
+    if job.direction is not None and job.direction != wanted:
+        raise InputError(f"--direction {job.direction} does not match --from {job.from_ka:g} "
+                         f"--to {job.to_ka:g} ka, which runs {wanted} in time.")
+    count = abs(job.to_ka - job.from_ka) * 1000.0 / job.dt
+    if abs(count - round(count)) > 1e-9 * max(1.0, count):
+        raise InputError(f"the span {job.from_ka:g}–{job.to_ka:g} ka is not a whole number of "
+                         f"--dt {job.dt:g} year steps.")
+    return round(count)
+
+
+def _forcing(job: ClimateJob, steps: int, chronology: Series, sea: Series | None,
+             mapping: SeaLevelMapping) -> Forcing:
+    sign = 1.0 if job.backward else -1.0
+    k = np.arange(1, steps + 1, dtype=np.float64)
+    end = job.from_ka + sign * k * job.dt / 1000.0
+    mid = end - sign * 0.5 * job.dt / 1000.0
+    d18o = chronology if job.chronology_kind == "d18o" else None
+    if job.chronology_kind == "sea-level":
+        sea = chronology
+
+    def sea_of(ages: np.ndarray) -> np.ndarray:
+        return np.asarray(sea_level(ages, sea, d18o, mapping), dtype=float)
+
+    try:
+        sea_mid, sea_end = sea_of(mid), sea_of(end)
+        sea_start = float(sea_of(np.array([job.from_ka]))[0])
+        # phases need the trend around each age: classify on a 1 ka grid, read at the middles
+        lo, hi = min(job.from_ka, job.to_ka), max(job.from_ka, job.to_ka)
+        source = sea if sea is not None else chronology
+        grid = np.arange(max(source.start_ka, lo - 30.0), min(source.end_ka, hi + 30.0) + 1e-9, 1.0)
+        phases_on_grid = classify(grid, sea_of(grid), PhaseThresholds())
+    except ValueError as exc:
+        raise InputError(f"{exc}") from None
+    # nearest grid age (1 ka apart), the younger one on ties
+    pick = np.clip(np.ceil(mid - grid[0] - 0.5).astype(np.int64), 0, grid.size - 1)
+    return Forcing(end, mid, np.asarray(phases_on_grid)[pick], sea_mid, sea_end, sea_start)
+
+
+def _fingerprint(job: ClimateJob) -> str:
+    """Hash of everything that decides the result (inputs' content included), to refuse a
+    --resume from a checkpoint of another run."""
+    fields = asdict(job)
+    for key in ("resume", "max_steps", "overwrite", "preview", "checkpoint_every"):
+        fields.pop(key)
+    digest = hashlib.sha256(json.dumps(fields, sort_keys=True, default=str).encode())
+    for path in (job.source, job.chronology, job.sea_level_file, job.schedule_file,
+                 job.downstream_mask, job.dirichlet):
+        if path is not None:
+            digest.update(file_sha256(Path(path)).encode())
+    digest.update(__version__.encode())
+    return digest.hexdigest()
+
+
+def plan(job: ClimateJob) -> PreparedClimateRun:
+    """Check everything before the first step: options, outputs, inputs, chronology range."""
+    names = parse_process_list(job.process, job.backward)
+    steps = _steps(job)
+    outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co,
+                               job.overwrite or job.resume, job.preview)
+    outputs.check(job.source)
+    step_ends = {round(job.from_ka + (1 if job.backward else -1) * k * job.dt / 1000.0, 9)
+                 for k in range(1, steps + 1)}
+    for age in job.snapshots_ka:
+        if round(age, 9) not in step_ends:
+            raise InputError(f"snapshot age {age:g} ka is not the end of a step of the run "
+                             f"({job.from_ka:g} → {job.to_ka:g} ka by {job.dt:g} years).")
+    for path in [timeline_path(job.output), chronology_png_path(job.output),
+                 *[snapshot_path(job.output, a) for a in job.snapshots_ka]]:
+        check_output(path, job.overwrite or job.resume, (job.source,))
+    if job.checkpoint_every < 1:
+        raise InputError("--checkpoint-every must be at least 1 step.")
+    terrain = read_terrain(job.source)
+    chronology = read_series(job.chronology, job.chronology_kind)
+    sea = read_series(job.sea_level_file, "sea-level") if job.sea_level_file else None
+    mapping = SeaLevelMapping(*job.d18o_mapping) if job.d18o_mapping else DEFAULT_MAPPING
+    forcing = _forcing(job, steps, chronology, sea, mapping)
+    try:
+        schedule = Schedule.from_mapping(read_yaml_mapping(
+            job.schedule_file, "the schedule file", "a mapping of phases to parameters",
+        )) if job.schedule_file else Schedule()
+    except ValueError as exc:
+        raise InputError(f"{job.schedule_file}: {exc}") from None
+    given = given_values(None, job.parameter_values, names)
+    base = {}
+    for name in names:
+        for spec in REGISTRY[name].parameters:
+            text = given.get(spec.name)
+            base[spec.name] = resolve(spec, spec.default if text is None else text, terrain)
+    bounds = boundaries_from_options(terrain, job.outlets, None, job.dirichlet)
+    nodes = bounds.dirichlet if bounds.dirichlet is not None else \
+        bounds.outlets(terrain.elevation, terrain)
+    downstream = None
+    if job.downstream_mask is not None or job.downstream_below is not None:
+        mask = (load_on_grid(job.downstream_mask, terrain, "downstream mask") != 0
+                if job.downstream_mask else None)
+        downstream = downstream_mask(terrain.elevation, job.downstream_below, mask)
+    return PreparedClimateRun(job, terrain, names, base, schedule, forcing, nodes, downstream,
+                              steps, outputs, chronology, _fingerprint(job))
+
+
+def _step_values(prepared: PreparedClimateRun, k: int) -> tuple[dict[str, Any], dict[str, float]]:
+    """Parameter values of step k (0-based) and the scheduled scalars written to the timeline."""
+    forcing = prepared.forcing
+    scheduled = prepared.schedule.values(str(forcing.phase[k]), float(forcing.sea_mid[k]))
+    values = dict(prepared.base_values)
+    values.update({name: value for name, value in scheduled.items() if name in values})
+    if prepared.downstream is not None and "k_d" in values:
+        kd_down = prepared.schedule.downstream_k_d(float(forcing.sea_mid[k]))
+        values["k_d"] = np.where(prepared.downstream, kd_down, values["k_d"])
+        scheduled = {**scheduled, "downstream_k_d": kd_down}
+    return values, scheduled
+
+
+def _processes(prepared: PreparedClimateRun, values: dict[str, Any], sea_end: float) -> list:
+    job = prepared.job
+    bounds = Boundaries(job.outlets, sea_end if job.sea_outlets else None, prepared.boundary_nodes)
+    options = {"scheme": job.scheme, "method": job.method,
+               "constraints": thermal_constraints(job.constraints)}
+    return build_processes(prepared.names, prepared.terrain, bounds, values, options)
+
+
+def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str:
+    """Run (or resume) the climate run, write every output, return a one-line summary."""
+    job, terrain, forcing = prepared.job, prepared.terrain, prepared.forcing
+    start_time = time.perf_counter()
+    h, first, rows = _start_state(prepared, on_note)
+    h0_nodes = terrain.elevation[prepared.boundary_nodes]
+    signed_dt = (-1.0 if job.backward else 1.0) * job.dt
+    last = prepared.steps if job.max_steps is None else min(prepared.steps, first + job.max_steps)
+    snapshots = {round(a, 9) for a in job.snapshots_ka}
+    noted: set[str] = set()
+
+    def note_once(message: str) -> None:
+        """Pass a sub-stepping note on at its first climate step only (one per process)."""
+        key = message.split(" (", 1)[0]
+        if on_note is not None and key not in noted:
+            noted.add(key)
+            on_note(f"{message[:-1]}, first at {forcing.end_ka[k]:g} ka; no further note.")
+
+    for k in range(first, last):
+        values, scheduled = _step_values(prepared, k)
+        sea_end = float(forcing.sea_end[k])
+        h[prepared.boundary_nodes] = h0_nodes + (sea_end - forcing.sea_start)
+        before = h.copy()
+        h, report = run(h, _processes(prepared, values, sea_end), signed_dt, 1,
+                        job.allow_substeps, None, note_once)
+        change = np.abs(h - before)[~terrain.nodata_mask]
+        if not np.isfinite(change).all():
+            raise RuntimeError(
+                f"the run diverged at {forcing.end_ka[k]:g} ka (elevations are no longer finite); "
+                "lower --dt or the rates (K, k_th), or drop a process that runs away backward"
+            )
+        rows.append({"age_ka": float(forcing.end_ka[k]), "phase": str(forcing.phase[k]),
+                     "sea_level_m": sea_end, **scheduled,
+                     "eroded_m3": sum(b.eroded for b in report.budgets.values()),
+                     "deposited_m3": sum(b.deposited for b in report.budgets.values()),
+                     "mean_abs_dh_m": float(change.mean()), "max_abs_dh_m": float(change.max())})
+        if round(float(forcing.end_ka[k]), 9) in snapshots:
+            _save_state(prepared, h, k, snapshot_path(job.output, float(forcing.end_ka[k])))
+        if (k + 1) % job.checkpoint_every == 0 or k + 1 == last:
+            _checkpoint(prepared, h, k + 1, rows)
+        if on_step is not None:
+            on_step(f"{forcing.end_ka[k]:.6g} ka, {forcing.phase[k]}, sea {sea_end:+.1f} m")
+    if last < prepared.steps:
+        return (f"{COMMAND}: stopped after step {last} of {prepared.steps} "
+                f"({forcing.end_ka[last - 1]:g} ka); run again with --resume to continue.")
+    _save_state(prepared, h, prepared.steps - 1, job.output, final=True, rows=rows,
+                wall=time.perf_counter() - start_time)
+    _write_timeline(timeline_path(job.output), rows)
+    with atomic_path(chronology_png_path(job.output)) as tmp:
+        save_chronology_plot(tmp, forcing.end_ka, forcing.phase, forcing.sea_end,
+                             prepared.chronology.age_ka, prepared.chronology.value,
+                             f"{prepared.chronology.name} ({prepared.chronology.unit})",
+                             job.snapshots_ka, title=job.output.name)
+    checkpoint_path(job.output).unlink(missing_ok=True)
+    return (f"{COMMAND}: {prepared.steps} steps of {job.dt:g} y from {job.from_ka:g} to "
+            f"{job.to_ka:g} ka; wrote {job.output}, {timeline_path(job.output).name}, "
+            f"{chronology_png_path(job.output).name} and {len(job.snapshots_ka)} snapshot(s)")
+
+
+def _start_state(prepared: PreparedClimateRun, on_note) -> tuple[np.ndarray, int, list[dict]]:
+    job = prepared.job
+    path = checkpoint_path(job.output)
+    h = np.array(prepared.terrain.elevation, dtype=np.float64, copy=True)
+    if not job.resume:
+        return h, 0, []
+    if not path.exists():
+        if on_note is not None:
+            on_note(f"note: no checkpoint {path.name} to resume from; starting from the beginning.")
+        return h, 0, []
+    saved = read_checkpoint(path)
+    if str(saved["fingerprint"]) != prepared.fingerprint:
+        raise InputError(f"the checkpoint {path} belongs to a run with other inputs or "
+                         "options; run without --resume (or with the same options).")
+    state = np.array(saved["elevation"], dtype=np.float64)
+    done = int(saved["step"])
+    rows = json.loads(str(saved["timeline"]))
+    if on_note is not None:
+        on_note(f"note: resuming after step {done} of {prepared.steps}.")
+    return state, done, rows
+
+
+def _checkpoint(prepared: PreparedClimateRun, h: np.ndarray, done: int, rows: list[dict]) -> None:
+    path = checkpoint_path(prepared.job.output)
+    write_checkpoint(path, elevation=h, step=done, timeline=json.dumps(rows),
+                     fingerprint=prepared.fingerprint)
+
+
+def _save_state(prepared: PreparedClimateRun, h: np.ndarray, k: int, path: Path,
+                final: bool = False, rows: list[dict] | None = None, wall: float = 0.0) -> None:
+    job, forcing = prepared.job, prepared.forcing
+    state = prepared.terrain.with_elevation(h)
+    age = float(forcing.end_ka[k])
+    state.tags.update({AGE_TAG: repr(age), SEA_TAG: repr(float(forcing.sea_end[k])),
+                       PHASE_TAG: str(forcing.phase[k]),
+                       TIME_TAG: repr((age - job.from_ka) * -1000.0)})
+    outputs = prepared.outputs if final else Outputs(path, prepared.outputs.options, True)
+    statistics = {"age_ka": age, "sea_level_m": float(forcing.sea_end[k]),
+                  "phase": str(forcing.phase[k])}
+    if final and rows is not None:
+        statistics.update({"steps": prepared.steps, "wall_time_s": wall,
+                           "eroded_m3": float(sum(r["eroded_m3"] for r in rows)),
+                           "deposited_m3": float(sum(r["deposited_m3"] for r in rows)),
+                           "snapshots": [str(snapshot_path(job.output, a))
+                                         for a in job.snapshots_ka]})
+    save(state, outputs, COMMAND, _provenance(job), statistics)
+
+
+def _provenance(job: ClimateJob) -> dict[str, Any]:
+    fields = asdict(job)
+    fields.pop("parameter_values")
+    return {**fields, **{k: v for k, v in job.parameter_values.items() if v is not None}}
+
+
+def _write_timeline(path: Path, rows: list[dict[str, Any]]) -> None:
+    columns: list[str] = []
+    for row in rows:
+        columns += [c for c in row if c not in columns]
+    write_table(path, columns, rows)

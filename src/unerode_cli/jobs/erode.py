@@ -1,0 +1,217 @@
+"""An `erode` / `unerode` job: plan (check everything, read inputs) then run and write."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from unerode_cli.errors import InputError
+from unerode_cli.io.paths import check_output
+from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.processes import thermal
+from unerode_cli.processes.parameters import UPLIFT
+from unerode_cli.run.boundaries import boundaries_from_options
+from unerode_cli.run.outputs import TIME_TAG, Outputs, field_preview, save, snapshot_path
+from unerode_cli.run.parameter_maps import resolve
+from unerode_cli.run.registry import (
+    REGISTRY,
+    build_processes,
+    given_values,
+    parse_process_list,
+    thermal_constraints,
+)
+from unerode_cli.run.runner import Process, RunReport, run
+
+
+@dataclass(frozen=True)
+class ErosionJob:
+    """What the user asked for (times in years, always positive; ``backward`` flips dt)."""
+
+    backward: bool
+    source: Path
+    output: Path
+    process: str = "fluvial"
+    dt: float = 1000.0
+    duration: float | None = None
+    steps: int | None = None
+    allow_substeps: bool = True
+    snapshot_every: float | None = None
+    change_map: Path | None = None
+    scheme: str = "limiter"
+    method: str = "mfd"
+    outlets: str = "all"
+    sea_level: float | None = None
+    dirichlet: Path | None = None
+    band: int | None = None
+    channel: str | None = None
+    dtype: str = "float32"
+    cog: bool = False
+    co: list[str] | None = None
+    overwrite: bool = False
+    preview: Path | None = None
+    parameter_values: dict[str, str | None] = field(default_factory=dict)
+    params_file: Path | None = None
+    constraints: str = ",".join(thermal.CONSTRAINTS)
+
+    @property
+    def command(self) -> str:
+        return "unerode" if self.backward else "erode"
+
+
+@dataclass
+class PreparedJob:
+    """A checked job: inputs read, processes built, every output path cleared."""
+
+    job: ErosionJob
+    terrain: Terrain
+    processes: list[Process]
+    parameters: dict[str, Any]
+    dt: float
+    steps: int
+    snapshot_stride: int | None
+    outputs: Outputs
+    uplift: float | np.ndarray = 0.0
+
+    @property
+    def signed_dt(self) -> float:
+        return -self.dt if self.job.backward else self.dt
+
+
+def step_count(dt: float, duration: float | None, steps: int | None) -> int:
+    """Steps from --duration or --steps (exactly one of them), checked."""
+    if not (math.isfinite(dt) and dt > 0):
+        raise InputError(f"--dt must be a positive number of years, got {dt:g}.")
+    if (duration is None) == (steps is None):
+        raise InputError("give exactly one of --duration (years) and --steps.")
+    if steps is not None:
+        if steps < 1:
+            raise InputError(f"--steps must be at least 1, got {steps}.")
+        return steps
+    assert duration is not None
+    if not (math.isfinite(duration) and duration > 0):
+        raise InputError(f"--duration must be a positive number of years, got {duration:g}.")
+    count = duration / dt
+    if abs(count - round(count)) > 1e-9 * max(1.0, count):
+        raise InputError(f"--duration {duration:g} is not a whole number of --dt {dt:g} steps.")
+    return max(1, round(count))
+
+
+def change_preview_path(change_map: Path) -> Path:
+    """``dh.tif`` → ``dh.png``: the change map's preview, written when --preview is given."""
+    return change_map.with_suffix(".png")
+
+
+def plan(job: ErosionJob) -> PreparedJob:
+    """Check the whole job before any work: options, outputs, inputs, parameters, boundaries."""
+    names = parse_process_list(job.process, job.backward)
+    steps = step_count(job.dt, job.duration, job.steps)
+    stride = None
+    if job.snapshot_every is not None:
+        stride_f = job.snapshot_every / job.dt
+        whole = abs(stride_f - round(stride_f)) < 1e-9 * max(1.0, stride_f)
+        if not (job.snapshot_every > 0 and whole):
+            raise InputError("--snapshot-every must be a positive whole multiple of --dt (years).")
+        stride = max(1, round(stride_f))
+    outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, job.overwrite, job.preview)
+    outputs.check(job.source)
+    extra = [job.change_map] if job.change_map else []
+    if job.change_map and job.preview:
+        extra.append(change_preview_path(job.change_map))
+    extra += [snapshot_path(job.output, k) for k in range(1, steps // stride + 1)] if stride else []
+    for path in extra:
+        check_output(path, job.overwrite, (job.source,))
+    terrain = read_terrain(job.source, band=job.band, channel=job.channel)
+    if (~terrain.nodata_mask).sum() == 0:
+        raise InputError(f"{job.source} has no valid cell.")
+    bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
+    given = given_values(job.params_file, job.parameter_values, names)
+    options = {"scheme": job.scheme, "method": job.method,
+               "constraints": thermal_constraints(job.constraints)}
+    values: dict[str, Any] = {}
+    parameters: dict[str, Any] = {}
+    for name in names:
+        for spec in REGISTRY[name].parameters:
+            text = given.get(spec.name)
+            parameters[spec.name] = spec.default if text is None else text
+            values[spec.name] = resolve(spec, parameters[spec.name], terrain)
+    processes = build_processes(names, terrain, bounds, values, options)
+    uplift = values.get(UPLIFT.name, 0.0)
+    return PreparedJob(job, terrain, processes, parameters, job.dt, steps, stride, outputs, uplift)
+
+
+def run_job(prepared: PreparedJob, on_step=None, on_note=None) -> str:
+    """Run, write the outputs, and return a one-line summary."""
+    job, terrain = prepared.job, prepared.terrain
+    start = time.perf_counter()
+    snapshots: list[Path] = []
+
+    def after_step(i: int, h: np.ndarray) -> None:
+        if prepared.snapshot_stride and i % prepared.snapshot_stride == 0:
+            path = snapshot_path(job.output, i // prepared.snapshot_stride)
+            snap = terrain.with_elevation(h)
+            snap.tags[TIME_TAG] = repr(i * prepared.signed_dt)
+            save(snap, Outputs(path, prepared.outputs.options, job.overwrite), job.command,
+                 _provenance(prepared), {"time_years": i * prepared.signed_dt})
+            snapshots.append(path)
+        if on_step is not None:
+            on_step(f"t = {i * prepared.signed_dt:+.6g} y")
+
+    h, report = run(terrain.elevation, prepared.processes, prepared.signed_dt, prepared.steps,
+                    job.allow_substeps, after_step, on_note)
+    result = terrain.with_elevation(h)
+    result.tags[TIME_TAG] = repr(report.elapsed_years)
+    change = process_change(terrain, h, prepared, report)
+    stats = _statistics(report, change, time.perf_counter() - start, snapshots)
+    save(result, prepared.outputs, job.command, _provenance(prepared), stats)
+    if job.change_map is not None:
+        layer = terrain.with_elevation(change)
+        save(layer, Outputs(job.change_map, prepared.outputs.options, job.overwrite),
+             job.command + " change", _provenance(prepared), stats, elevation_preview=False)
+        if job.preview is not None:
+            field_preview(change, terrain, change_preview_path(job.change_map),
+                          "Δh due to the processes (m)", title=job.change_map.name, diverging=True)
+    budget = sum(b.eroded for b in report.budgets.values()), sum(
+        b.deposited for b in report.budgets.values())
+    return (f"{job.command}: {report.steps} steps of {prepared.dt:g} y "
+            f"(t = {report.elapsed_years:+g} y); removed {budget[0]:.4g} m³ from the surface, "
+            f"added {budget[1]:.4g} m³; wrote {job.output}")
+
+
+def process_change(
+    terrain: Terrain, h: np.ndarray, prepared: PreparedJob, report: RunReport
+) -> np.ndarray:
+    """Δh (m) due to the processes alone: final − initial − U·t (uplift excluded)."""
+    return h - terrain.elevation - prepared.uplift * report.elapsed_years
+
+
+def _provenance(prepared: PreparedJob) -> dict[str, Any]:
+    job = prepared.job
+    return {"input": job.source, "process": job.process, "dt_years": prepared.dt,
+            "steps": prepared.steps, "direction": "backward" if job.backward else "forward",
+            "scheme": job.scheme, "method": job.method, "outlets": job.outlets,
+            "sea_level": job.sea_level, "dirichlet": job.dirichlet,
+            "allow_substeps": job.allow_substeps, "params_file": job.params_file,
+            "thermal_constraints": job.constraints, **prepared.parameters}
+
+
+def _statistics(report: RunReport, change: np.ndarray, wall: float,
+                snapshots: list[Path]) -> dict[str, Any]:
+    valid = np.isfinite(change)
+    return {
+        "steps": report.steps,
+        "substeps": report.substeps,
+        "elapsed_years": report.elapsed_years,
+        "mass_budget_m3": {name: {"eroded": b.eroded, "deposited": b.deposited,
+                                  "outflux": b.outflux, "residual": b.residual}
+                           for name, b in report.budgets.items()},
+        "mean_abs_change_m": float(np.abs(change[valid]).mean()),
+        "max_abs_change_m": float(np.abs(change[valid]).max()),
+        "wall_time_s": wall,
+        "snapshots": [str(p) for p in snapshots],
+    }

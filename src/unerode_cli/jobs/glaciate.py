@@ -1,0 +1,393 @@
+"""A `glaciate` job (001): plan (check everything, read inputs) then run the coupled glacier model
+(``glacier.coupled``) or solve the velocity of a given geometry once (diagnostic mode), and write.
+
+Inputs: the DEM is the bedrock (m). ``--ela`` is a number (m), a raster on the DEM's grid, or a
+CSV time table with the columns ``time`` (years since the start of the run) and ``ela`` (m),
+interpolated linearly and held beyond its ends. ``--sliding-C`` is a number, ``inf`` (frozen
+bed) or a raster. ``--ice-thickness`` (m, a raster on the DEM's grid) is the initial ice of a
+run, or the geometry of a diagnostic solve.
+
+Outputs: the eroded bed (a DEM like the input; its JSON sidecar holds the ice-volume series
+and the solver statistics), the final ice thickness (``--ice``), surface velocity (``--velocity``,
+two bands vx, vy in m/y, x east, y along the rows, i.e. south) and basal speed (``--sliding``,
+m/y) of the final geometry, and ice-thickness snapshots ``ICE_001.tif``... (``--ice`` or
+``OUT_ice``) every ``--snapshot-every`` years.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from unerode_cli.errors import InputError
+from unerode_cli.glacier import blatter, coupled, erosion, massbalance
+from unerode_cli.io.csv_tables import table_number, table_rows
+from unerode_cli.io.gdal_io import WriteOptions
+from unerode_cli.io.grid_rasters import read_on_grid, write_bands
+from unerode_cli.io.paths import check_output
+from unerode_cli.io.provenance import history_entry, write_sidecar
+from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.run.outputs import TIME_TAG, Outputs, save, snapshot_path
+from unerode_cli.run.parameter_maps import resolve
+
+COMMAND = "glaciate"
+#: Mass-balance and erosion parameters given as ``--NAME`` options (number or raster).
+PARAMETERS = (*(s for s in massbalance.PARAMETERS if s.name != "ela"), *erosion.PARAMETERS)
+ELA_SPEC = next(s for s in massbalance.PARAMETERS if s.name == "ela")
+SLIDING_SPEC = next(s for s in blatter.PARAMETERS if s.name == "sliding_c")
+#: The diagnostic solve: blatter.solve's own convergence threshold, and a generous iteration cap.
+DIAGNOSTIC_RTOL = 1e-5
+DIAGNOSTIC_MAX_ITER = 20000
+
+
+@dataclass(frozen=True)
+class GlacierJob:
+    """What the user asked for (lengths in m, times in years, the background slope in degrees)."""
+
+    source: Path
+    output: Path | None
+    ela: str | None = None
+    duration: float | None = None
+    dt: float = 10.0
+    iceflow: str = "blatter"
+    layers: int = 10
+    sliding_c: str = "1000"
+    sliding_sigma: float = 1.5
+    rate_factor: float | None = None
+    boundary: str = "open"
+    background_slope: float = 0.0
+    transport: str = "multiscale"
+    allow_substeps: bool = True
+    erosion: bool = True
+    ice_thickness: Path | None = None
+    ice: Path | None = None
+    velocity: Path | None = None
+    sliding: Path | None = None
+    snapshot_every: float | None = None
+    diagnostic: bool = False
+    band: int | None = None
+    channel: str | None = None
+    dtype: str = "float32"
+    cog: bool = False
+    co: list[str] | None = None
+    overwrite: bool = False
+    preview: Path | None = None
+    parameter_values: dict[str, str | None] = field(default_factory=dict)
+
+
+@dataclass
+class PreparedGlacierJob:
+    """A checked job: inputs read, parameters built, every output path cleared."""
+
+    job: GlacierJob
+    terrain: Terrain
+    params: coupled.CoupledParams
+    thickness: np.ndarray
+    ela: coupled.Ela | None
+    times: np.ndarray
+    snapshot_times: list[float]
+    write: WriteOptions
+    parameters: dict[str, Any]
+
+    @property
+    def steps(self) -> int:
+        return len(self.times)
+
+
+def plan(job: GlacierJob) -> PreparedGlacierJob:
+    """Check the whole job before any work: options, outputs, inputs, parameters."""
+    _check_options(job)
+    write = Outputs.from_cli(job.source, job.dtype, job.cog, job.co, job.overwrite, None).options
+    snapshot_times = _snapshot_times(job)
+    _check_outputs(job, snapshot_times)
+    terrain = read_terrain(job.source, band=job.band, channel=job.channel)
+    if not terrain.grid.valid.any():
+        raise InputError(f"{job.source} has no valid cell.")
+    thickness = read_thickness(job.ice_thickness, terrain)
+    ela = None if job.ela is None else read_ela(job.ela, terrain)
+    given = {k: v for k, v in job.parameter_values.items() if v is not None}
+    values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain) for spec in PARAMETERS}
+    flow_params = {"sliding_c": sliding_coefficient(job.sliding_c, terrain), "sigma": job.sliding_sigma,
+                   "n_layers": job.layers}
+    if job.rate_factor is not None:
+        flow_params["glen_a"] = job.rate_factor
+    try:
+        params = coupled.CoupledParams(
+            flow=blatter.FlowParams(**flow_params), iceflow=job.iceflow, transport=job.transport,
+            allow_substeps=job.allow_substeps, boundary=job.boundary,
+            background_slope=math.radians(job.background_slope), erosion=job.erosion, **values)
+        params.validate(terrain.shape)
+        times = np.array([]) if job.diagnostic else coupled.step_times(job.duration, job.dt, snapshot_times)
+    except ValueError as exc:
+        raise InputError(f"{str(exc).rstrip('.')}.") from None
+    parameters = _provenance(job, params, given)
+    return PreparedGlacierJob(job, terrain, params, thickness, ela, times, snapshot_times, write, parameters)
+
+
+def _check_options(job: GlacierJob) -> None:
+    if job.layers < 1:
+        raise InputError(f"--layers must be a whole number ≥ 1, got {job.layers}.")
+    if not (math.isfinite(job.sliding_sigma) and job.sliding_sigma >= 1.0):
+        raise InputError(f"--sliding-sigma must be ≥ 1, got {job.sliding_sigma:g}.")
+    if job.rate_factor is not None and not (math.isfinite(job.rate_factor) and job.rate_factor > 0):
+        raise InputError(f"--rate-factor must be a positive number (Pa⁻³/y), got {job.rate_factor:g}.")
+    if not (math.isfinite(job.background_slope) and abs(job.background_slope) < 90.0):
+        raise InputError("--background-slope must be an angle in (−90, 90) degrees, "
+                         f"got {job.background_slope:g}.")
+    if job.diagnostic:
+        if job.ice_thickness is None:
+            raise InputError("--diagnostic needs --ice-thickness (the geometry to solve).")
+        if job.output is None and job.velocity is None and job.sliding is None:
+            raise InputError("--diagnostic writes --velocity, --sliding or OUT; give at least one.")
+        return
+    if job.output is None:
+        raise InputError("OUT (the eroded bed) is required unless --diagnostic is given.")
+    if job.ela is None:
+        raise InputError("--ela is required (a number in m, a raster, or a CSV time table).")
+    if job.duration is None or not (math.isfinite(job.duration) and job.duration > 0):
+        raise InputError("--duration must be given as a positive number of years.")
+    if not (math.isfinite(job.dt) and job.dt > 0):
+        raise InputError(f"--dt must be a positive number of years, got {job.dt:g}.")
+    if job.snapshot_every is not None and not (math.isfinite(job.snapshot_every) and job.snapshot_every > 0):
+        raise InputError(f"--snapshot-every must be a positive number of years, got {job.snapshot_every:g}.")
+
+
+def _snapshot_times(job: GlacierJob) -> list[float]:
+    if job.diagnostic or job.snapshot_every is None or job.duration is None:
+        return []
+    count = math.floor(job.duration / job.snapshot_every * (1.0 + 1e-12))
+    return [k * job.snapshot_every for k in range(1, count + 1)]
+
+
+def snapshot_base(job: GlacierJob) -> Path:
+    """Ice snapshots are numbered after ``--ice``, else after ``OUT_ice``."""
+    assert job.output is not None
+    return job.ice or job.output.with_name(f"{job.output.stem}_ice{job.output.suffix}")
+
+
+def _check_outputs(job: GlacierJob, snapshot_times: list[float]) -> None:
+    inputs = tuple(p for p in (job.source, job.ice_thickness) if p is not None)
+    paths = [p for p in (job.output, job.ice, job.velocity, job.sliding, job.preview) if p is not None]
+    if snapshot_times:
+        paths += [snapshot_path(snapshot_base(job), k) for k in range(1, len(snapshot_times) + 1)]
+    for path in paths:
+        check_output(path, job.overwrite, inputs)
+    if len(set(map(Path.resolve, paths))) != len(paths):
+        raise InputError("two outputs have the same path.")
+    if job.velocity is not None and job.velocity.suffix.lower() not in (".tif", ".tiff"):
+        raise InputError("the velocity output has two bands and must be a GeoTIFF (.tif), "
+                         f"got {job.velocity.name}.")
+
+
+def read_thickness(path: Path | None, terrain: Terrain) -> np.ndarray:
+    """Ice thickness (m) on the DEM's grid: finite and ≥ 0 inside the domain, 0 outside; zeros
+    when no raster is given."""
+    if path is None:
+        return np.zeros(terrain.shape)
+    layer = read_on_grid(path, terrain, "ice thickness").elevation
+    valid = terrain.grid.valid
+    inside = layer[valid]
+    if not np.isfinite(inside).all():
+        raise InputError(f"the ice-thickness raster {path} has nodata or NaN cells inside the DEM's domain.")
+    if (inside < 0).any():
+        raise InputError(f"the ice-thickness raster {path} has negative thicknesses "
+                         f"(min {inside.min():g} m).")
+    return np.where(valid, layer, 0.0)
+
+
+def read_ela(text: str, terrain: Terrain) -> coupled.Ela:
+    """``--ela``: a number (m), a CSV time table (``time``, ``ela`` columns) or a raster."""
+    if Path(text).suffix.lower() == ".csv":
+        return read_ela_table(Path(text))
+    return resolve(ELA_SPEC, text, terrain)
+
+
+def read_ela_table(path: Path) -> coupled.ElaTable:
+    """The ELA table at ``path``: years since the start of the run, ELA in m (module docstring)."""
+    times: list[float] = []
+    values: list[float] = []
+    for line, row in table_rows(path, "ELA", ("time", "ela"), ("time", "ela")):
+        t, e = table_number(row, "time", path, line), table_number(row, "ela", path, line)
+        if times and t <= times[-1]:
+            raise InputError(f"{path}, line {line}: the times of an ELA table must increase.")
+        times.append(t)
+        values.append(e)
+    if not times:
+        raise InputError(f"the ELA table {path} has no row.")
+    return coupled.ElaTable(np.array(times), np.array(values))
+
+
+def sliding_coefficient(text: str, terrain: Terrain) -> float | np.ndarray:
+    """``--sliding-C``: ``inf`` (frozen bed), a number ≥ 0 or a raster (Pa·(y/m)^(σ−1))."""
+    if text.strip().lower() in ("inf", "+inf", "infinity"):
+        return math.inf
+    return resolve(SLIDING_SPEC, text, terrain)
+
+
+def _provenance(job: GlacierJob, params: coupled.CoupledParams, given: dict[str, str]) -> dict[str, Any]:
+    return {"input": job.source, "ela": job.ela, "duration_years": job.duration, "dt_years": job.dt,
+            "iceflow": job.iceflow, "layers": job.layers, "sliding_c": job.sliding_c,
+            "sliding_sigma": job.sliding_sigma, "rate_factor": params.flow.glen_a, "boundary": job.boundary,
+            "background_slope_degrees": job.background_slope, "transport": job.transport,
+            "allow_substeps": job.allow_substeps, "erosion": job.erosion, "ice_thickness": job.ice_thickness,
+            "diagnostic": job.diagnostic,
+            "flow_rtol": DIAGNOSTIC_RTOL if job.diagnostic else params.flow_rtol,
+            **{spec.name: given.get(spec.name, spec.default) for spec in PARAMETERS}}
+
+
+# --- running --------------------------------------------------------------------------------------
+
+def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
+    """Run the coupled model, write the outputs and return a one-line summary.
+
+    ``on_step(info)`` is called after each step with the simulated time and ice volume;
+    ``on_note(text)`` with notes for the user (e.g. no ice can form)."""
+    job, terrain = prepared.job, prepared.terrain
+    grid = terrain.grid
+    start = time.perf_counter()
+    state = coupled.GlacierState(coupled.fill_outside(terrain.elevation, grid.valid), prepared.thickness)
+    snapshots: list[Path] = []
+    note = ""
+    if coupled.never_glaciated(state.bed, state.thickness, grid, prepared.ela):
+        note = _no_ice_note(terrain, prepared.ela)
+        if on_note is not None:
+            on_note(note)
+        end = coupled.GlacierState(state.bed, state.thickness, float(prepared.times[-1]))
+        result = coupled.RunResult(end, [0.0, end.time], [0.0, 0.0], steps=0)
+        for k, t in enumerate(prepared.snapshot_times, start=1):
+            path = snapshot_path(snapshot_base(job), k)
+            _save_layer(prepared, state.thickness, path, "m", {"time_years": t}, t)
+            snapshots.append(path)
+    else:
+        def after_step(new: coupled.GlacierState, report: coupled.StepReport) -> None:
+            if any(math.isclose(new.time, t, rel_tol=1e-12) for t in prepared.snapshot_times):
+                path = snapshot_path(snapshot_base(job), len(snapshots) + 1)
+                _save_layer(prepared, new.thickness, path, "m", {"time_years": new.time}, new.time)
+                snapshots.append(path)
+            if on_step is not None:
+                on_step(f"t = {new.time:,.0f} y, ice {report.volume / 1e9:.4g} km³")
+
+        try:
+            result = coupled.run(state, grid, prepared.params, prepared.ela, prepared.times, after_step)
+        except coupled.UnstableStep as exc:
+            raise InputError(
+                f"--dt {exc.dt:g} y is above the stable explicit ice-transport step {exc.stable:.3g} y "
+                f"(reached at t = {exc.time:g} y); lower --dt or drop --no-substep.") from None
+        except coupled.Diverged as exc:
+            raise RuntimeError(f"{exc}; lower --dt or use --transport explicit") from None
+    final = result.state
+    stats = _statistics(result, terrain, time.perf_counter() - start, snapshots, note)
+    flow = _final_flow(prepared, final) if (job.velocity or job.sliding) else None
+    if flow is not None:
+        stats["final_flow"] = _flow_statistics(flow)
+    bed = terrain.with_elevation(final.bed)
+    bed.tags[TIME_TAG] = repr(final.time)
+    assert job.output is not None
+    save(bed, Outputs(job.output, prepared.write, job.overwrite, job.preview), COMMAND,
+         prepared.parameters, stats)
+    if job.ice is not None:
+        _save_layer(prepared, final.thickness, job.ice, "m", stats, final.time)
+    if flow is not None:
+        _write_flow(prepared, flow, stats)
+    summary = (f"{COMMAND}: {result.steps} steps to t = {final.time:g} y; ice volume "
+               f"{result.volumes[-1] / 1e9:.4g} km³; removed {result.eroded:.4g} m³ "
+               f"of bedrock; wrote {job.output}")
+    if result.unconverged:
+        summary += (f"\nnote: {result.unconverged} of {result.steps} velocity solves stopped at "
+                    f"{prepared.params.flow_max_iter} iterations (largest residual "
+                    f"{result.max_residual:.2g}, "
+                    f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
+    return summary
+
+
+def run_diagnostic(prepared: PreparedGlacierJob) -> str:
+    """Solve the velocity of the given geometry once and write the asked outputs."""
+    job, terrain = prepared.job, prepared.terrain
+    start = time.perf_counter()
+    bed = coupled.fill_outside(terrain.elevation, terrain.grid.valid)
+    flow = coupled.flow_field(bed, prepared.thickness, terrain.grid, prepared.params, rtol=DIAGNOSTIC_RTOL,
+                              max_iter=DIAGNOSTIC_MAX_ITER)
+    stats = {"flow": _flow_statistics(flow), "wall_time_s": time.perf_counter() - start}
+    if job.output is not None:
+        save(terrain.with_elevation(terrain.elevation), Outputs(job.output, prepared.write,
+                                                                job.overwrite, job.preview),
+             COMMAND, prepared.parameters, stats)
+    _write_flow(prepared, flow, stats)
+    state = "converged" if flow.converged else "NOT converged"
+    written = ", ".join(str(p) for p in (job.velocity, job.sliding, job.output) if p is not None)
+    return (f"{COMMAND} --diagnostic: velocity solved with {job.iceflow} ({state}, residual "
+            f"{flow.residual:.3g}, {flow.iterations} iterations); max surface speed "
+            f"{float(np.max(np.hypot(*flow.surface))):.4g} m/y; wrote {written}")
+
+
+def _final_flow(prepared: PreparedGlacierJob, state: coupled.GlacierState) -> coupled.FlowField:
+    """Velocities of the final geometry (warm-started, with the run's re-solve policy)."""
+    return coupled.flow_field(state.bed, state.thickness, prepared.terrain.grid, prepared.params,
+                              warm=state.lattice)
+
+
+def _write_flow(prepared: PreparedGlacierJob, flow: coupled.FlowField, stats: dict[str, Any]) -> None:
+    job, terrain = prepared.job, prepared.terrain
+    if job.velocity is not None:
+        entry = history_entry(COMMAND, prepared.parameters)
+        write_bands(np.stack(flow.surface), terrain, job.velocity, prepared.write,
+                    ["surface velocity vx, east (m/y)", "surface velocity vy, along rows = south (m/y)"],
+                    {"UNIT": "m/y", "UNERODE_QUANTITY": "ice surface velocity"})
+        write_sidecar(job.velocity, entry, stats)
+    if job.sliding is not None:
+        _save_layer(prepared, np.hypot(*flow.basal), job.sliding, "m/y", stats)
+
+
+def _save_layer(prepared: PreparedGlacierJob, values: np.ndarray, path: Path, unit: str,
+                stats: dict[str, Any], time_years: float | None = None) -> None:
+    """Write a side raster (ice thickness, basal speed) on the DEM's grid, with sidecar."""
+    layer = prepared.terrain.with_elevation(values)
+    layer.tags["UNIT"] = unit
+    if time_years is not None:
+        layer.tags[TIME_TAG] = repr(time_years)
+    save(layer, Outputs(path, prepared.write, prepared.job.overwrite), COMMAND,
+         prepared.parameters, stats, elevation_preview=False)
+
+
+def _no_ice_note(terrain: Terrain, ela: coupled.Ela) -> str:
+    peak = float(np.nanmax(terrain.elevation))
+    lowest = float(np.min(ela.values if isinstance(ela, coupled.ElaTable) else np.asarray(ela)))
+    return (f"note: the ELA (lowest {lowest:g} m) is above every peak of the DEM (highest {peak:g} m): "
+            "no ice forms and the bed is unchanged.")
+
+
+def _flow_statistics(flow: coupled.FlowField) -> dict[str, Any]:
+    return {"iterations": flow.iterations, "evaluations": flow.evaluations, "residual": flow.residual,
+            "converged": flow.converged, "energy_pa_m3_per_y": flow.energy,
+            "max_surface_speed_m_per_y": float(np.max(np.hypot(*flow.surface))),
+            "max_sliding_speed_m_per_y": float(np.max(np.hypot(*flow.basal)))}
+
+
+def _statistics(result: coupled.RunResult, terrain: Terrain, wall: float, snapshots: list[Path],
+                note: str) -> dict[str, Any]:
+    valid = terrain.grid.valid
+    lowering = (terrain.elevation - result.state.bed)[valid]
+    stats: dict[str, Any] = {
+        "steps": result.steps,
+        "elapsed_years": result.state.time,
+        "ice_volume_series": {"time_years": result.times, "ice_volume_m3": result.volumes},
+        "final_ice_volume_m3": result.volumes[-1],
+        "eroded_volume_m3": result.eroded,
+        "max_erosion_m": float(lowering.max()) if lowering.size else 0.0,
+        "transport_substeps": result.substeps,
+        "velocity_resolves": result.resolves,
+        "energy_evaluations": result.evaluations,
+        "unconverged_solves": result.unconverged,
+        "max_flow_residual": result.max_residual,
+        "wall_time_s": wall,
+        "snapshots": [str(p) for p in snapshots],
+    }
+    if note:
+        stats["note"] = note
+    return stats

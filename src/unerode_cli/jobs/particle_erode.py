@@ -1,0 +1,419 @@
+"""A `particle-erode` job (003): plan (check everything, read inputs, build the terrain, the
+emission and the medium) then run the particles and write the outputs.
+
+Inputs: the DEM is the ground surface (m). A layered terrain (003 §4.2) adds a multi-band
+raster of layer thicknesses (m, bottom layer first) and a materials table; the base of the
+stack is the surface minus the total thickness. Outputs: the new surface (a DEM like the
+input), optionally the change map Δh (m), the layers (thicknesses in the input's format, the
+deposit layer on top), and a GeoJSON of sampled particle paths. The JSON sidecar holds the
+mass budget (m³) and the particle counts.
+
+Mass budget (``particles.ParticleBudget``): emitted + detached − deposited − suspended − lost
+= 0 up to rounding, and the terrain's volume changes by deposited − detached. ``emitted`` is
+matter added by design (the particles' ``initial_load``: the volcano preset) and
+``suspended`` matter removed by design (``keep_suspended``: the coastal preset's corrosion);
+for the other presets both are 0 and detached = deposited + lost.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from unerode_cli.errors import InputError
+from unerode_cli.io.grid_rasters import load_on_grid, read_bands_on_grid, write_bands
+from unerode_cli.io.material_files import read_materials
+from unerode_cli.io.particle_paths import grid_to_map, write_paths
+from unerode_cli.io.paths import check_output
+from unerode_cli.io.provenance import history_entry, write_sidecar
+from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.river_files import read_river_line
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.particles import (
+    PARAMETERS,
+    Emission,
+    HeightfieldTerrain,
+    LayeredTerrain,
+    ParticleParams,
+    ParticleRun,
+    Preset,
+    VelocityField,
+    get_preset,
+)
+from unerode_cli.particles import Terrain as ParticleTerrain
+from unerode_cli.run.outputs import Outputs, field_preview, save
+from unerode_cli.run.parameter_maps import resolve
+
+COMMAND = "particle-erode"
+#: Meander field of ``--velocity sin`` without numbers: 1 m/s, a quarter of the DEM's width.
+SIN_AMPLITUDE = 1.0
+SIN_WAVES_PER_WIDTH = 4.0
+
+
+@dataclass(frozen=True)
+class ParticleJob:
+    """What the user asked for. Texts are parsed in ``plan``; None = the preset's value.
+
+    Attributes (units): ``outputs`` the output DEM and its write options; ``sources`` "X,Y" map
+    coordinates in the DEM's CRS (m or degrees) or one GeoJSON/WKT line file; ``spread`` m;
+    ``velocity`` "uniform:VE,VN[,VU]" (m/s), "sin[:AMPLITUDE,WAVELENGTH]" (m/s, m) or a 2/3-band
+    raster path; ``emission_velocity`` "VE,VN[,VU]" (m/s); ``sea_level`` m; ``path_stride``
+    steps.
+    """
+
+    source: Path
+    outputs: Outputs
+    preset: str = "rain"
+    particles: int | None = None
+    iterations: int | None = None
+    seed: int = 0
+    emission: str | None = None
+    sources: tuple[str, ...] = ()
+    spread: float | None = None
+    rain_mask: Path | None = None
+    emission_velocity: str | None = None
+    velocity: str | None = None
+    velocity_medium: str | None = None
+    sea_level: float | None = None
+    layers: Path | None = None
+    materials: Path | None = None
+    layer_materials: str | None = None
+    deposit_material: str | None = None
+    layers_out: Path | None = None
+    change_map: Path | None = None
+    paths: Path | None = None
+    path_count: int = 100
+    path_stride: int = 4
+    threads: int | None = None
+    band: int | None = None
+    channel: str | None = None
+    parameter_values: dict[str, str | None] = field(default_factory=dict)
+
+
+@dataclass
+class PreparedParticleJob:
+    """A checked job: inputs read, terrain, parameters, emission and medium built, every
+    output path cleared."""
+
+    job: ParticleJob
+    dem: Terrain
+    terrain: ParticleTerrain
+    params: ParticleParams
+    emission: Emission
+    velocity: VelocityField | None
+    iterations: int
+    outputs: Outputs
+    layers_out: Path | None
+    provenance: dict[str, Any]
+    notes: list[str]
+
+
+@contextlib.contextmanager
+def bad_input() -> Iterator[None]:
+    """Turn the particles package's ValueError (one sentence) into bad input (exit 2)."""
+    try:
+        yield
+    except ValueError as exc:
+        raise InputError(f"{str(exc).rstrip('.')}.") from None
+
+
+def change_preview_path(change_map: Path) -> Path:
+    """``dh.tif`` → ``dh.png``: the change map's preview, written when --preview is given."""
+    return change_map.with_suffix(".png")
+
+
+def default_layers_path(output: Path) -> Path:
+    """``OUT.tif`` → ``OUT_layers.tif`` (always a GeoTIFF: layers are multi-band)."""
+    return output.with_name(f"{output.stem}_layers.tif")
+
+
+def plan(job: ParticleJob) -> PreparedParticleJob:
+    """Check the whole job before any work: options, outputs, inputs, parameters."""
+    with bad_input():
+        preset = get_preset(job.preset)
+    if (job.layers is None) != (job.materials is None):
+        raise InputError("a layered terrain needs both --layers (thicknesses) and --materials (table).")
+    if job.layers is None and (job.layer_materials or job.deposit_material or job.layers_out):
+        raise InputError("--layer-materials, --deposit-material and --layers-out need --layers.")
+    outputs = job.outputs
+    inputs = tuple(p for p in (job.source, job.layers, job.materials, job.rain_mask) if p is not None)
+    outputs.check(*inputs)
+    layers_out = None
+    if job.layers is not None:
+        layers_out = job.layers_out or default_layers_path(outputs.path)
+        if layers_out.suffix.lower() not in (".tif", ".tiff"):
+            raise InputError(f"the layers output must be a GeoTIFF (.tif), got {layers_out.name}.")
+    extra = [p for p in (job.change_map, layers_out, job.paths) if p is not None]
+    if job.change_map is not None and outputs.preview is not None:
+        extra.append(change_preview_path(job.change_map))
+    for path in extra:
+        check_output(path, outputs.overwrite, inputs)
+    if len(set(map(Path.resolve, [outputs.path, *extra]))) != len(extra) + 1:
+        raise InputError("two outputs have the same path.")
+    _check_counts(job)
+    dem = read_terrain(job.source, band=job.band, channel=job.channel)
+    grid = dem.grid
+    if not grid.valid.any():
+        raise InputError(f"{job.source} has no valid cell.")
+    params = particle_params(preset, job.parameter_values, dem)
+    notes: list[str] = []
+    emission = build_emission(job, preset, params, dem, notes)
+    velocity = build_velocity(job, preset, dem)
+    if job.layers is not None:
+        terrain = layered_terrain(job, dem)
+    else:
+        with bad_input():
+            terrain = HeightfieldTerrain(np.nan_to_num(dem.elevation), grid)
+    with bad_input():
+        params.validate(grid)
+        emission.validate(grid)
+        if velocity is not None:
+            velocity.validate(grid)
+    iterations = preset.iterations if job.iterations is None else job.iterations
+    provenance = {
+        "input": job.source, "preset": preset.name, "particles_per_iteration": emission.count,
+        "iterations": iterations, "emission": emission.kind, "source_points": _points(emission, dem),
+        "spread_m": emission.spread, "rain_mask": job.rain_mask, "emission_velocity_m_s": emission.velocity,
+        "velocity": job.velocity, "velocity_medium": None if velocity is None else velocity.medium,
+        "sea_level_m": job.sea_level, "layers": job.layers, "materials": job.materials,
+        **asdict(params),
+    }
+    if isinstance(terrain, LayeredTerrain):
+        provenance["layer_materials"] = [terrain.materials[m].name for m in terrain.layer_material]
+        provenance["deposit_material"] = terrain.materials[terrain.deposit_material].name
+    return PreparedParticleJob(job, dem, terrain, params, emission, velocity, iterations, outputs,
+                               layers_out, provenance, notes)
+
+
+def _check_counts(job: ParticleJob) -> None:
+    for option, value, low in (("--particles", job.particles, 1), ("--iterations", job.iterations, 1),
+                               ("--path-count", job.path_count, 1), ("--path-stride", job.path_stride, 1),
+                               ("--threads", job.threads, 1)):
+        if value is not None and value < low:
+            raise InputError(f"{option} must be at least {low}, got {value}.")
+    if not 0 <= job.seed < 2**64:
+        raise InputError(f"--seed must be an integer in [0, 2^64), got {job.seed}.")
+    if job.sea_level is not None and not math.isfinite(job.sea_level):
+        raise InputError(f"--sea-level must be a finite elevation (m), got {job.sea_level}.")
+    if job.spread is not None and not (math.isfinite(job.spread) and job.spread >= 0):
+        raise InputError(f"--spread must be a distance ≥ 0 m, got {job.spread}.")
+
+
+def particle_params(preset: Preset, given: dict[str, str | None], dem: Terrain) -> ParticleParams:
+    """The preset's parameters on the DEM's cells (R in cells × the mean cell size), with the
+    values given on the command line (SI units, checked against ``particles.PARAMETERS``)."""
+    overrides = {spec.name: float(resolve(spec, text, dem))
+                 for spec in PARAMETERS if (text := given.get(spec.name)) is not None}
+    with bad_input():
+        return preset.params(0.5 * (dem.dx + dem.dy), **overrides)
+
+
+def _numbers(text: str, counts: tuple[int, ...], what: str) -> list[float]:
+    """Comma-separated finite numbers, as many as one of ``counts``."""
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in counts or not all(math.isfinite(v) for v in values):
+        wanted = " or ".join(str(c) for c in counts)
+        raise InputError(f"{what} expects {wanted} comma-separated numbers, got '{text}'.")
+    return values
+
+
+def _map_to_grid(dem: Terrain, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(column, row) grid coordinates (cell centres at integers) of map coordinates: float[k, 2]."""
+    cols, rows = ~dem.transform * (np.asarray(x, float), np.asarray(y, float))
+    return np.column_stack([np.atleast_1d(cols) - 0.5, np.atleast_1d(rows) - 0.5])
+
+
+def _points(emission: Emission, dem: Terrain) -> list[list[float]] | None:
+    if emission.points is None:
+        return None
+    x, y = grid_to_map(dem, emission.points[:, 0], emission.points[:, 1])
+    return np.column_stack([x, y]).tolist()
+
+
+def source_points(job: ParticleJob, dem: Terrain, notes: list[str]) -> np.ndarray:
+    """Grid coordinates float[k, 2] of the source: ``--source X,Y`` (repeated: a line), a line
+    file, or the highest cell of the DEM when none is given."""
+    if not job.sources:
+        row, col = np.unravel_index(np.nanargmax(dem.elevation), dem.shape)
+        x, y = grid_to_map(dem, col, row)
+        notes.append(f"note: no --source given: particles start at the highest cell ({float(x):.1f}, "
+                     f"{float(y):.1f}).")
+        return np.array([[float(col), float(row)]])
+    if len(job.sources) == 1 and "," not in job.sources[0]:
+        x, y = read_river_line(Path(job.sources[0]))
+    else:
+        xy = np.array([_numbers(text, (2,), "--source") for text in job.sources])
+        x, y = xy[:, 0], xy[:, 1]
+    return _map_to_grid(dem, x, y)
+
+
+def build_emission(job: ParticleJob, preset: Preset, params: ParticleParams, dem: Terrain,
+                   notes: list[str]) -> Emission:
+    """Rain over the domain (or weighted by ``--rain-mask``) or a source point / line."""
+    kind = job.emission or ("source" if job.sources else preset.emission)
+    if kind not in ("rain", "source"):
+        raise InputError(f"--emission must be rain or source, got '{kind}'.")
+    if kind == "rain" and job.sources:
+        raise InputError("--source needs --emission source (or a preset that emits from a source).")
+    if kind == "source" and job.rain_mask is not None:
+        raise InputError("--rain-mask needs rain emission (--emission rain).")
+    count = preset.particles if job.particles is None else job.particles
+    velocity = (0.0, 0.0, 0.0)
+    if job.emission_velocity is not None:
+        velocity = tuple(_numbers(job.emission_velocity, (2, 3), "--emission-velocity") + [0.0])[:3]
+    if kind == "rain":
+        mask = None
+        if job.rain_mask is not None:
+            mask = np.nan_to_num(load_on_grid(job.rain_mask, dem, "rain mask"), nan=0.0)
+        return Emission.rain(count, mask, velocity=velocity)
+    spread = params.radius if job.spread is None else job.spread
+    return Emission.source(count, source_points(job, dem, notes), spread=spread, velocity=velocity)
+
+
+def build_velocity(job: ParticleJob, preset: Preset, dem: Terrain) -> VelocityField | None:
+    """The medium velocity field (003 Eq. 8) of ``--velocity``, or None (still medium)."""
+    medium = job.velocity_medium or preset.field_medium
+    text = job.velocity
+    if text is None:
+        return None
+    kind, _, numbers = text.partition(":")
+    with bad_input():
+        if kind == "uniform":
+            return VelocityField.uniform(*_numbers(numbers, (2, 3), "--velocity uniform:"), medium=medium)
+        if kind == "sin":
+            values = (_numbers(numbers, (2,), "--velocity sin:") if numbers else
+                      [SIN_AMPLITUDE, dem.shape[1] * dem.dx / SIN_WAVES_PER_WIDTH])
+            return VelocityField.meander(*values, medium=medium)
+        bands = read_bands_on_grid(Path(text), dem, "velocity").values
+        if bands.shape[0] not in (2, 3):
+            raise InputError(f"the velocity raster {text} has {bands.shape[0]} band(s); it needs 2 (east, "
+                             f"north) or 3 (east, north, up) in m/s.")
+        return VelocityField.raster(np.where(dem.grid.valid, bands, 0.0), medium=medium)
+
+
+def layered_terrain(job: ParticleJob, dem: Terrain) -> LayeredTerrain:
+    """The layered terrain (003 §4.2) of ``--layers`` and ``--materials`` under the DEM's surface.
+
+    Layer materials: ``--layer-materials`` (names, bottom first), else the band descriptions
+    when each names a material of the table, else the table's rows in order (one per band).
+    Deposits become ``--deposit-material``, by default the top layer's material.
+    """
+    assert job.layers is not None and job.materials is not None
+    materials = read_materials(job.materials)
+    names = [m.name for m in materials]
+    bands = read_bands_on_grid(job.layers, dem, "layers")
+    valid = dem.grid.valid
+    thickness = bands.values
+    if not np.isfinite(thickness[:, valid]).all():
+        raise InputError(f"the layers raster {job.layers} has nodata inside the DEM's domain.")
+    n = thickness.shape[0]
+    if job.layer_materials:
+        chosen = [name.strip() for name in job.layer_materials.split(",")]
+        if len(chosen) != n:
+            raise InputError(f"--layer-materials names {len(chosen)} material(s) for {n} layer band(s).")
+    elif all(d in names for d in bands.descriptions):
+        chosen = list(bands.descriptions)
+    elif len(materials) == n:
+        chosen = names
+    else:
+        raise InputError(f"the layers raster has {n} band(s) and the materials table {len(materials)} "
+                         f"row(s): name each band's material with --layer-materials.")
+    deposit = job.deposit_material or chosen[-1]
+    for name in [*chosen, deposit]:
+        if name not in names:
+            raise InputError(f"material '{name}' is not in the materials table {job.materials}.")
+    thickness = np.where(valid, thickness, 0.0)
+    base = np.where(valid, dem.elevation - thickness.sum(axis=0), 0.0)
+    with bad_input():
+        return LayeredTerrain(base, thickness, [names.index(c) for c in chosen], materials,
+                              names.index(deposit), dem.grid)
+
+
+def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] | None = None,
+            on_note: Callable[[str], None] | None = None) -> str:
+    """Run the particles, write the outputs, and return a one-line summary."""
+    import numba
+
+    from unerode_cli.particles import run
+
+    job, dem = prepared.job, prepared.dem
+    for note in prepared.notes:
+        if on_note is not None:
+            on_note(note)
+    if job.threads is not None:
+        numba.set_num_threads(min(job.threads, numba.config.NUMBA_NUM_THREADS))
+    start = time.perf_counter()
+    result = run(prepared.terrain, prepared.params, prepared.emission, iterations=prepared.iterations,
+                 seed=job.seed, velocity=prepared.velocity, sea_level=job.sea_level,
+                 paths=job.path_count if job.paths is not None else 0, path_stride=job.path_stride,
+                 on_iteration=on_iteration)
+    seconds = time.perf_counter() - start
+    stats = statistics(result, dem, seconds)
+    surface = dem.with_elevation(result.elevation)
+    save(surface, prepared.outputs, COMMAND, prepared.provenance, stats, seed=job.seed)
+    outputs = prepared.outputs
+    if job.change_map is not None:
+        save(dem.with_elevation(result.dh), Outputs(job.change_map, outputs.options, outputs.overwrite),
+             COMMAND + " change", prepared.provenance, stats, seed=job.seed, elevation_preview=False)
+        if outputs.preview is not None:
+            field_preview(result.dh, dem, change_preview_path(job.change_map), "Δh (m)",
+                          title=job.change_map.name, diverging=True)
+    if prepared.layers_out is not None:
+        _write_layers(result, prepared, stats)
+    if job.paths is not None:
+        write_paths(job.paths, result.paths, dem, prepared.emission.count)
+    b = result.budget
+    return (f"{COMMAND}: {prepared.provenance['preset']} preset, {result.stats.particles} particles "
+            f"({prepared.iterations} × {prepared.emission.count}), {result.stats.impacts} impacts in "
+            f"{seconds:.2f} s; detached {b.detached:.4g} m³, deposited {b.deposited:.4g} m³, lost at "
+            f"edges {b.lost:.4g} m³, suspended {b.suspended:.4g} m³, emitted {b.emitted:.4g} m³ "
+            f"(residual {stats['mass_budget_m3']['relative_residual']:.1e}); wrote {outputs.path}")
+
+
+def statistics(result: ParticleRun, dem: Terrain, seconds: float) -> dict[str, Any]:
+    """Run statistics for the sidecar: mass budget (m³), counts, Δh and speed."""
+    b = result.budget
+    scale = b.detached + b.emitted
+    valid = dem.grid.valid
+    dh = result.dh[valid]
+    return {
+        "mass_budget_m3": {
+            "detached": b.detached, "deposited": b.deposited, "suspended": b.suspended,
+            "lost_at_edges": b.lost, "emitted": b.emitted, "dropped": b.dropped,
+            "residual": b.residual, "relative_residual": abs(b.residual) / scale if scale > 0 else 0.0,
+            "terrain_volume_change": math.fsum(dh) * dem.dx * dem.dy,
+        },
+        "mass_budget_note": (
+            "emitted + detached - deposited - suspended - lost_at_edges = residual (0 up to rounding); "
+            "the terrain's volume changes by deposited - detached. 'emitted' is matter added by design "
+            "(initial_load, e.g. the volcano preset), 'suspended' matter removed by design "
+            "(keep_suspended, e.g. the coastal preset); 'dropped' is the part of 'deposited' left "
+            "where particles died."),
+        "particles": result.stats.particles, "impacts": result.stats.impacts,
+        "settled": result.stats.settled, "left_domain": result.stats.lost, "expired": result.stats.expired,
+        "mean_abs_change_m": float(np.abs(dh).mean()), "max_erosion_m": float(max(0.0, -dh.min())),
+        "max_deposition_m": float(max(0.0, dh.max())), "wall_time_s": seconds,
+        "particles_per_second": result.stats.particles / seconds if seconds > 0 else None,
+    }
+
+
+def _write_layers(result: ParticleRun, prepared: PreparedParticleJob, stats: dict[str, Any]) -> None:
+    terrain = result.terrain
+    assert isinstance(terrain, LayeredTerrain) and prepared.layers_out is not None
+    names = [terrain.materials[m].name for m in terrain.layer_material]
+    entry = history_entry(COMMAND + " layers", prepared.provenance, prepared.job.seed)
+    tags = {"UNERODE_HISTORY": json.dumps([entry]), "UNERODE_LAYERS": "thickness (m), bottom layer first",
+            "UNERODE_DEPOSIT_MATERIAL": names[-1]}
+    write_bands(terrain.thickness, prepared.dem, prepared.layers_out, prepared.outputs.options, names, tags)
+    write_sidecar(prepared.layers_out, entry, {**stats, "layer_materials": names})

@@ -1,0 +1,271 @@
+"""Registry of surface processes the runner can drive, each bound to a terrain's grid and
+boundaries. A process's parameter declarations (``PARAMETERS``) feed CLI options, validation
+and provenance."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from unerode_cli.errors import InputError
+from unerode_cli.io.parameter_file import read_parameter_file
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.processes import debris, fluvial, hillslope, thermal, thermal_ca
+from unerode_cli.processes.budget import MassBudget
+from unerode_cli.processes.parameters import UPLIFT, ParamSpec
+from unerode_cli.run.boundaries import Boundaries
+from unerode_cli.run.runner import Change, Process
+
+
+@dataclass
+class Surface:
+    """The terrain and boundaries a process runs on, with the flow routing of the last
+    elevation asked for (recomputed when the elevation changes)."""
+
+    terrain: Terrain
+    boundaries: Boundaries
+    method: str = "mfd"
+    _cached: tuple[np.ndarray, Any] | None = field(default=None, repr=False)
+
+    def outlets(self, h: np.ndarray) -> np.ndarray:
+        """bool[ny, nx] base-level cells of ``h`` (edges, sea, Dirichlet nodes)."""
+        return self.boundaries.outlets(h, self.terrain)
+
+    def routing(self, h: np.ndarray) -> Any:
+        """The routing of ``h`` towards its outlets (``unerode_cli.hydro.Routing``)."""
+        from unerode_cli.hydro import route
+
+        if self._cached is not None and np.array_equal(self._cached[0], h):
+            return self._cached[1]
+        routing = route(h, self.terrain.grid, self.outlets(h), self.method)
+        self._cached = (h.copy(), routing)
+        return routing
+
+
+def _change(dh: np.ndarray, budget: MassBudget) -> Change:
+    return Change(dh, budget.eroded, budget.deposited, budget.outflux)
+
+
+@dataclass
+class FluvialProcess:
+    """Fluvial erosion/deposition (000 §3).
+
+    The stability check computes the step itself and reads the CFL bound off its discharge;
+    the step is kept, so that ``advance`` with the same elevation and dt (no sub-steps, the
+    usual case) costs nothing more. A step that needs sub-steps wastes that one step.
+    """
+
+    surface: Surface
+    params: fluvial.FluvialParams
+    scheme: str = "limiter"
+    name: str = "fluvial"
+    _last: tuple[Any, float, fluvial.FluvialChange] | None = field(default=None, repr=False)
+
+    def _step(self, elevation: np.ndarray, dt: float) -> tuple[Any, fluvial.FluvialChange]:
+        # The surface hands out the same routing object as long as the elevation is unchanged,
+        # so it keys the kept step too.
+        routing = self.surface.routing(elevation)
+        last = self._last
+        if last is not None and last[0] is routing and last[1] == dt:
+            return routing, last[2]
+        change = fluvial.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
+                              dt, routing=routing, scheme=self.scheme)
+        self._last = (routing, dt, change)
+        return routing, change
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        routing, change = self._step(elevation, dt)
+        return fluvial.max_stable_dt(elevation, self.surface.terrain.grid, self.params, routing,
+                                     discharge=change.discharge)
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        change = self._step(elevation, dt)[1]
+        return _change(change.dh, change.budget)
+
+
+@dataclass
+class ThermalProcess:
+    """Thermal erosion with rock deposition and its reversal (000 §4)."""
+
+    surface: Surface
+    params: thermal.ThermalParams
+    scheme: str = "limiter"
+    constraints: tuple[str, ...] = thermal.CONSTRAINTS
+    name: str = "thermal"
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        return thermal.max_stable_dt(elevation, self.surface.terrain.grid, self.params,
+                                     self.surface.outlets(elevation), dt, self.scheme)
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        routing = self.surface.routing(elevation)
+        change = thermal.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
+                              dt, routing=routing, scheme=self.scheme,
+                              constraints=self.constraints)
+        return _change(change.dh, change.budget)
+
+
+@dataclass
+class OutletStepProcess:
+    """A process whose step needs only the base-level cells: the thermal cellular automaton
+    (Musgrave et al. 1989) and hillslope diffusion (001 §6.4), both forward only.
+
+    ``step(elevation, grid, fixed, params, dt)`` returns a SurfaceChange; ``max_dt(grid,
+    params)`` its stable |dt| (None: unconditionally stable).
+    """
+
+    surface: Surface
+    params: Any
+    name: str
+    step: Callable[..., Any]
+    max_dt: Callable[[Any, Any], float] | None = None
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        if self.max_dt is None:
+            return float("inf")
+        return self.max_dt(self.surface.terrain.grid, self.params)
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        change = self.step(elevation, self.surface.terrain.grid, self.surface.outlets(elevation),
+                           self.params, dt)
+        return _change(change.dh, change.budget)
+
+
+@dataclass
+class DebrisProcess:
+    """Debris flow along steepest descent, implicit (001 Eq. 8; forward only)."""
+
+    surface: Surface
+    params: debris.DebrisParams
+    name: str = "debris"
+
+    def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        return float("inf")
+
+    def advance(self, elevation: np.ndarray, dt: float) -> Change:
+        routing = self.surface.routing(elevation)
+        change = debris.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
+                             dt, routing=routing)
+        return _change(change.dh, change.budget)
+
+
+@dataclass(frozen=True)
+class Registered:
+    """A process the command line offers: its parameters, how to build it from the surface,
+    the parameter values and the run options, and whether it can run backward in time (and,
+    if not, why)."""
+
+    parameters: tuple[ParamSpec, ...]
+    build: Callable[[Terrain, Boundaries, dict[str, Any], dict[str, Any]], Process]
+    summary: str
+    backward_refusal: str | None = None
+
+
+def _values(specs: tuple[ParamSpec, ...], values: dict[str, Any]) -> dict[str, Any]:
+    return {spec.name: values[spec.name] for spec in specs}
+
+
+def _surface(terrain: Terrain, boundaries: Boundaries, method: str = "mfd") -> Surface:
+    return Surface(terrain, boundaries, method)
+
+
+REGISTRY: dict[str, Registered] = {
+    "fluvial": Registered(
+        fluvial.PARAMETERS,
+        lambda t, b, v, o: FluvialProcess(
+            _surface(t, b, o.get("method", "mfd")),
+            fluvial.FluvialParams(**_values(fluvial.PARAMETERS, v)), o.get("scheme", "limiter")),
+        "fluvial erosion with sediment deposition (000 §3)",
+    ),
+    "thermal": Registered(
+        thermal.PARAMETERS,
+        lambda t, b, v, o: ThermalProcess(
+            _surface(t, b, o.get("method", "mfd")),
+            thermal.ThermalParams(**_values(thermal.PARAMETERS, v)), o.get("scheme", "limiter"),
+            tuple(o.get("constraints", thermal.CONSTRAINTS))),
+        "thermal erosion with rock deposition following the flow (000 §4)",
+    ),
+    "thermal-ca": Registered(
+        thermal_ca.PARAMETERS,
+        lambda t, b, v, o: OutletStepProcess(
+            _surface(t, b), thermal_ca.ThermalCAParams(**_values(thermal_ca.PARAMETERS, v)),
+            "thermal-ca", thermal_ca.step, thermal_ca.max_stable_dt),
+        "the classic thermal cellular automaton (Musgrave et al. 1989)",
+        thermal_ca.BACKWARD_REFUSAL,
+    ),
+    "hillslope": Registered(
+        hillslope.PARAMETERS,
+        lambda t, b, v, o: OutletStepProcess(
+            _surface(t, b), hillslope.HillslopeParams(**_values(hillslope.PARAMETERS, v)),
+            "hillslope", hillslope.step),
+        "linear hillslope diffusion, implicit ADI (001 §6.4)",
+        hillslope.BACKWARD_REFUSAL,
+    ),
+    "debris": Registered(
+        debris.PARAMETERS,
+        lambda t, b, v, o: DebrisProcess(
+            _surface(t, b, "d8"), debris.DebrisParams(**_values(debris.PARAMETERS, v))),
+        "debris flow above a critical slope, stronger with drainage area (001 Eq. 8)",
+        debris.BACKWARD_REFUSAL,
+    ),
+}
+
+
+def build_processes(names: list[str], terrain: Terrain, boundaries: Boundaries,
+                    values: dict[str, Any], options: dict[str, Any]) -> list[Process]:
+    """The processes ``names`` with their parameters taken from ``values`` (name → number or
+    raster). The uplift is given only to the first process that takes it, so that a combined
+    run applies it once per step."""
+    built, uplift_taken = [], False
+    for name in names:
+        registered = REGISTRY[name]
+        own = _values(registered.parameters, values)
+        if UPLIFT.name in own:
+            if uplift_taken:
+                own[UPLIFT.name] = 0.0
+            uplift_taken = True
+        built.append(registered.build(terrain, boundaries, own, options))
+    return built
+
+
+def parse_process_list(text: str, backward: bool) -> list[str]:
+    """``"fluvial,thermal"`` → names, checked against the registry (and the direction)."""
+    names = [n.strip().lower() for n in text.split(",") if n.strip()]
+    if not names:
+        raise InputError("--process needs at least one process name.")
+    for name in names:
+        if name not in REGISTRY:
+            raise InputError(f"unknown process '{name}'; choose from {', '.join(REGISTRY)}.")
+        refusal = REGISTRY[name].backward_refusal
+        if backward and refusal:
+            raise InputError(refusal)
+    if len(set(names)) != len(names):
+        raise InputError(f"--process names a process twice: {text}.")
+    return names
+
+
+def given_values(params_file: Path | None, parameter_values: dict[str, str | None],
+                 names: list[str]) -> dict[str, str | None]:
+    """Parameter values from --params FILE, overridden by those of the command line."""
+    values: dict[str, str | None] = {}
+    if params_file is not None:
+        declared = {name: REGISTRY[name].parameters for name in names}
+        values.update(read_parameter_file(params_file, declared))
+    values.update({k: v for k, v in parameter_values.items() if v is not None})
+    return values
+
+
+def thermal_constraints(text: str) -> tuple[str, ...]:
+    """``--thermal-constraints`` → names (``none`` for no constraint)."""
+    names = tuple(n.strip().lower() for n in text.split(",") if n.strip())
+    if names == ("none",):
+        return ()
+    unknown = [n for n in names if n not in thermal.CONSTRAINTS]
+    if unknown:
+        raise InputError(f"unknown thermal constraint '{unknown[0]}'; choose among "
+                         f"{', '.join(thermal.CONSTRAINTS)}, or none.")
+    return names
