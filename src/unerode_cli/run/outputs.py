@@ -47,6 +47,16 @@ class Outputs:
             check_output(self.preview, self.overwrite, inputs)
 
 
+def check_previewable(terrain: Terrain, source: Path | str) -> None:
+    """Refuse, before any work, a preview of a heightfield that cannot be hill-shaded: fewer
+    than 2 × 2 cells (no slope) or no valid cell. ``source`` names it in the message."""
+    ny, nx = terrain.shape
+    if ny < 2 or nx < 2:
+        raise InputError(f"{source} has {ny} × {nx} cells; a preview needs at least 2 × 2.")
+    if terrain.nodata_mask.all():
+        raise InputError(f"{source} has no valid cell (every cell is nodata or NaN).")
+
+
 def save(
     terrain: Terrain,
     outputs: Outputs,
