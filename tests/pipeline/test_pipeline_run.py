@@ -144,10 +144,11 @@ def test_resume_reruns_a_step_whose_output_was_changed(tmp_path: Path) -> None:
 
 
 def test_a_failing_step_keeps_earlier_outputs_and_resume_continues(tmp_path: Path) -> None:
-    spec = make_spec(tmp_path, SPEC.replace("dt: 1000", "dt: -5"))
+    # each value is valid on its own (checked before step 1); erode refuses their combination
+    spec = make_spec(tmp_path, SPEC.replace('steps: "${steps}"', "duration: 1500"))
     result = run_cli("pipeline", "run", spec)
     assert result.returncode == 2                         # erode refused its input
-    assert "error: --dt must be a positive number of years, got -5." in result.stderr
+    assert "error: --duration 1500 is not a whole number of --dt 1000 steps." in result.stderr
     assert ("error: step 'eroded' (erode) failed with exit code 2; earlier outputs and the state "
             "file are kept, so fix the cause and rerun with --resume.") in result.stderr
     assert steps_said(result.stderr, "done in") == ["terrain"]

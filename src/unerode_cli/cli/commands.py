@@ -20,6 +20,7 @@ from unerode_cli.cli.info import info
 from unerode_cli.cli.particle_erode import particle_erode
 from unerode_cli.cli.preview import preview
 from unerode_cli.cli.synth import synth
+from unerode_cli.cli.values import Command
 
 COMMANDS: dict[str, Callable[..., None]] = {
     "info": info, "convert": convert, "preview": preview, "synth": synth, "flow": flow,
@@ -30,7 +31,8 @@ COMMANDS: dict[str, Callable[..., None]] = {
 
 
 def register(app: typer.Typer) -> typer.Typer:
-    """Add every subcommand of :data:`COMMANDS` to ``app`` (in table order); returns ``app``."""
+    """Add every subcommand of :data:`COMMANDS` to ``app`` (in table order), each reporting bad
+    option values as bad input (:class:`~unerode_cli.cli.values.Command`); returns ``app``."""
     for name, command in COMMANDS.items():
-        app.command(name)(command)
+        app.command(name, cls=Command)(command)
     return app

@@ -10,6 +10,7 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import Outlets, Overwrite, Quiet, SeaLevel, Verbose
+from unerode_cli.cli.values import Number
 
 #: Exit code when the terrace RMSE exceeds --fail-above (a gate for Makefiles).
 EXIT_ABOVE_THRESHOLD = 3
@@ -42,17 +43,17 @@ def compare_terraces(
     present: Annotated[Path, typer.Option("--present", help="Today's DEM, the reference of the heights.", rich_help_panel="Inputs")],
     snapshots: Annotated[list[str], typer.Option("--snapshots", help="Snapshot raster, folder of snapshots, or quoted glob ('runs/past_*ka.tif'); repeatable. Ages come from climate-run's UNERODE_AGE_KA tag, else a name ending in _<age>ka.", rich_help_panel="Inputs")],
     out: Annotated[Path, typer.Option("--out", help="Write the report in this folder: terraces.csv, profiles.csv, summary.json, profiles.png (+ incision.csv, incision.png).", rich_help_panel="Inputs")],
-    observations: Annotated[Path | None, typer.Option("--observations", help="CSV of dated terraces: age_ka, height_above_river_m, [uncertainty_m], [x,y | chainage_m], [name].", rich_help_panel="Inputs")] = None,
-    incision: Annotated[Path | None, typer.Option("--incision", help="CSV of incision rates: from_ka, to_ka, rate_mm_per_ka, [uncertainty_mm_per_ka], [name].", rich_help_panel="Inputs")] = None,
+    observations: Annotated[Path | None, typer.Option("--observations", help="CSV of dated terraces with the columns age_ka and height_above_river_m, and optionally uncertainty_m, x and y (DEM's CRS) or chainage_m, and name.", rich_help_panel="Inputs")] = None,
+    incision: Annotated[Path | None, typer.Option("--incision", help="CSV of incision rates with the columns from_ka, to_ka and rate_mm_per_ka, and optionally uncertainty_mm_per_ka and name.", rich_help_panel="Inputs")] = None,
     river: Annotated[Path | None, typer.Option("--river", help="River line in the DEM's CRS: GeoJSON or WKT LINESTRING (either direction).", rich_help_panel="River")] = None,
     auto_river: Annotated[bool, typer.Option("--auto-river", help="Extract the main channel by steepest descent instead of --river.", rich_help_panel="River")] = False,
     river_start: Annotated[str | None, typer.Option("--river-start", help="X,Y (DEM's CRS) where the automatic river starts; default: up the main stem of the largest catchment.", rich_help_panel="River")] = None,
-    min_area_fraction: Annotated[float, typer.Option("--min-area-fraction", help="The automatic main stem ends where its tributaries drain less than this share of the catchment.", rich_help_panel="River")] = 0.01,
-    search_radius: Annotated[float, typer.Option("--search-radius", help="Riverbed = lowest cell within this distance (m) of the river line; 0: the cell under it.", rich_help_panel="River")] = 0.0,
+    min_area_fraction: Annotated[float, typer.Option("--min-area-fraction", parser=Number(minimum=0.0, maximum=1.0, above=True), help="The automatic main stem ends where its tributaries drain less than this share of the catchment.", rich_help_panel="River")] = 0.01,
+    search_radius: Annotated[float, typer.Option("--search-radius", parser=Number("m", 0.0), help="Riverbed = lowest cell within this distance (m) of the river line; 0: the cell under it.", rich_help_panel="River")] = 0.0,
     outlets: Outlets = "all",
     sea_level: SeaLevel = None,
-    uplift: Annotated[float, typer.Option("--uplift", help="Rock uplift rate since each age (m/y): a terrace formed at age a now stands U·a higher than its simulated bed.", rich_help_panel="Comparison")] = 0.0,
-    fail_above: Annotated[float | None, typer.Option("--fail-above", help=f"Exit with code {EXIT_ABOVE_THRESHOLD} when the terrace RMSE exceeds this (m), after writing the report.", rich_help_panel="Comparison")] = None,
+    uplift: Annotated[float, typer.Option("--uplift", parser=Number("m/y"), help="Rock uplift rate since each age (m/y): a terrace formed at age a now stands U·a higher than its simulated bed.", rich_help_panel="Comparison")] = 0.0,
+    fail_above: Annotated[float | None, typer.Option("--fail-above", parser=Number("m", 0.0), help=f"Exit with code {EXIT_ABOVE_THRESHOLD} when the terrace RMSE exceeds this (m), after writing the report.", rich_help_panel="Comparison")] = None,
     overwrite: Overwrite = False,
     verbose: Verbose = 0,
     quiet: Quiet = 0,
@@ -63,7 +64,7 @@ def compare_terraces(
     observation is compared at its place (x,y or chainage) or with the river's mean.
     """
     with reported_errors(verbose - quiet):
-        from unerode_cli.cli.common import say
+        from unerode_cli.cli.common import SUMMARY, say
         from unerode_cli.errors import InputError
         from unerode_cli.jobs.compare_terraces import TerraceJob, run_compare
 
@@ -85,7 +86,7 @@ def compare_terraces(
         for period in summary["incision"]["periods"]:
             typer.echo(f"incision {period['from_ka']:g}-{period['to_ka']:g} ka: simulated "
                        f"{period['simulated_mm_per_ka']:.3g} mm/ka, observed {period['observed_mm_per_ka']:.3g} mm/ka")
-        say(f"report written to {out}/", verbose - quiet)
+        say(f"report written to {out}/", verbose - quiet, SUMMARY)
         if fail_above is not None and report.rmse_m > fail_above:
             say(f"terrace RMSE {report.rmse_m:.3g} m is above --fail-above {fail_above:g} m.", 0)
             raise typer.Exit(EXIT_ABOVE_THRESHOLD)

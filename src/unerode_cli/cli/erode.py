@@ -10,6 +10,7 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
+    POSITIVE_YEARS,
     Band,
     Channel,
     Cog,
@@ -56,11 +57,11 @@ def _command(backward: bool):
         output: OutputDem,
         process: Annotated[str, typer.Option(help=PROCESS_HELP)] = "fluvial",
         params: Annotated[Path | None, typer.Option("--params", help="YAML file of parameter values (name or symbol → number or raster path, optionally grouped under process names); command-line values win.")] = None,
-        dt: Annotated[float, typer.Option("--dt", help="Time step (years, > 0; unerode runs it backward).")] = 1000.0,
-        duration: Annotated[float | None, typer.Option(help="Simulated time (years); or give --steps.")] = None,
-        steps: Annotated[int | None, typer.Option(help="Number of time steps; or give --duration.")] = None,
+        dt: Annotated[float, typer.Option("--dt", parser=POSITIVE_YEARS, help="Time step (years, > 0; unerode runs it backward).")] = 1000.0,
+        duration: Annotated[float | None, typer.Option(parser=POSITIVE_YEARS, help="Simulated time (years); or give --steps.")] = None,
+        steps: Annotated[int | None, typer.Option(min=1, help="Number of time steps; or give --duration.")] = None,
         no_substep: Annotated[bool, typer.Option("--no-substep", help="Refuse an unstable --dt instead of sub-stepping it.")] = False,
-        snapshot_every: Annotated[float | None, typer.Option(help="Write a numbered snapshot OUTPUT_k every this many simulated years.")] = None,
+        snapshot_every: Annotated[float | None, typer.Option(parser=POSITIVE_YEARS, help="Write a numbered snapshot OUTPUT_k every this many simulated years.")] = None,
         change_map: Annotated[Path | None, typer.Option(help="Write the signed change (m) due to the processes (uplift excluded): < 0 erosion, > 0 deposition.")] = None,
         scheme: Annotated[Scheme, typer.Option(help="Slope of backward fluvial and thermal steps: limiter (000 Eq. 12) or upwind (Eq. 10).")] = Scheme.limiter,
         thermal_constraints: Annotated[str, typer.Option(help="Un-deposition constraints of thermal unerosion (000 §4.2): any of slope (Eq. 16), convexity (Eq. 17), rate (max un-deposition), or none.")] = "slope,convexity,rate",
@@ -80,7 +81,7 @@ def _command(backward: bool):
         parameter_values: dict[str, str | None] | None = None,
     ) -> None:
         with reported_errors(verbose - quiet):
-            from unerode_cli.cli.common import say
+            from unerode_cli.cli.common import SUMMARY, say
             from unerode_cli.cli.progress import progress_bar
             from unerode_cli.jobs.erode import ErosionJob, plan, run_job
 
@@ -97,7 +98,7 @@ def _command(backward: bool):
             with progress_bar(prepared.steps, verb, verbose - quiet) as advance:
                 summary = run_job(prepared, on_step=advance,
                                   on_note=lambda text: say(text, verbose - quiet))
-            say(summary, verbose - quiet)
+            say(summary, verbose - quiet, SUMMARY)
 
     command.__name__ = verb
     command.__doc__ = (

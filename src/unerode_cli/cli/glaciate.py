@@ -10,6 +10,7 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
+    POSITIVE_YEARS,
     Band,
     Channel,
     Cog,
@@ -23,6 +24,7 @@ from unerode_cli.cli.options import (
     Verbose,
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
+from unerode_cli.cli.values import Number
 from unerode_cli.glacier import erosion, massbalance
 
 
@@ -54,15 +56,15 @@ def glaciate(
     dem: InputDem,
     output: Annotated[Path | None, typer.Argument(help="Output bedrock after glacial erosion (format from the extension). Optional with --diagnostic, where it receives the bed unchanged with the solver statistics in its sidecar.")] = None,
     ela: Annotated[str | None, typer.Option("--ela", help="Equilibrium-line altitude E (m, 001 Eq. 2): a number, a raster on the DEM's grid, or a CSV table with columns time (years since the start) and ela (m), interpolated linearly.")] = None,
-    duration: Annotated[float | None, typer.Option(help="Simulated time (years).")] = None,
-    dt: Annotated[float, typer.Option("--dt", help="Time step (years). Multi-scale transport starts from 10 y and grows ×1.5 per step up to it.")] = 10.0,
+    duration: Annotated[float | None, typer.Option(parser=POSITIVE_YEARS, help="Simulated time (years).")] = None,
+    dt: Annotated[float, typer.Option("--dt", parser=POSITIVE_YEARS, help="Time step (years). Multi-scale transport starts from 10 y and grows ×1.5 per step up to it.")] = 10.0,
     iceflow: Annotated[IceFlow, typer.Option(help="Ice flow: blatter (Blatter–Pattyn energy, 001 Eq. 7) or sia (shallow ice + Weertman sliding, fast baseline).", rich_help_panel=FLOW_PANEL)] = IceFlow.blatter,
-    layers: Annotated[int, typer.Option("--layers", help="Layers N of the ice-flow lattice (001 §4.2), ≥ 1.", rich_help_panel=FLOW_PANEL)] = 10,
+    layers: Annotated[int, typer.Option("--layers", min=1, help="Layers N of the ice-flow lattice (001 §4.2), ≥ 1.", rich_help_panel=FLOW_PANEL)] = 10,
     sliding_c: Annotated[str, typer.Option("--sliding-C", help="Sliding coefficient C (Pa·(y/m)^(σ-1), 001 Eq. 6): a number, a raster on the DEM's grid, or inf (frozen bed, no sliding, no erosion).", rich_help_panel=FLOW_PANEL)] = "1000",
-    sliding_sigma: Annotated[float, typer.Option("--sliding-sigma", help="Sliding exponent σ (001 Table 1: 1.5; 2 = the linear law τ_b = C·u_b of ISMIP-HOM C/D).", rich_help_panel=FLOW_PANEL)] = 1.5,
-    rate_factor: Annotated[float | None, typer.Option("--rate-factor", help="Glen's rate factor A (Pa⁻³/y, n = 3) instead of 001's B; default 8.2e-17, i.e. B = 2.9e5 Pa·y^(1/3) (001 Table 1). ISMIP-HOM: 1e-16.", rich_help_panel=FLOW_PANEL)] = None,
+    sliding_sigma: Annotated[float, typer.Option("--sliding-sigma", parser=Number(minimum=1.0), help="Sliding exponent σ (001 Table 1: 1.5; 2 = the linear law τ_b = C·u_b of ISMIP-HOM C/D).", rich_help_panel=FLOW_PANEL)] = 1.5,
+    rate_factor: Annotated[float | None, typer.Option("--rate-factor", parser=Number("Pa⁻³/y", 0.0, above=True), help="Glen's rate factor A (Pa⁻³/y, n = 3) instead of 001's B; default 8.2e-17, i.e. B = 2.9e5 Pa·y^(1/3) (001 Table 1). ISMIP-HOM: 1e-16.", rich_help_panel=FLOW_PANEL)] = None,
     boundary: Annotated[Edges, typer.Option(help="Domain edges: open (stress free, ice leaves) or periodic (wrap around, e.g. ISMIP-HOM).", rich_help_panel=FLOW_PANEL)] = Edges.open,
-    background_slope: Annotated[float, typer.Option("--background-slope", help="Uniform inclination (degrees) along +x (east) added to bed and surface, for periodic tilted slabs (ISMIP-HOM: 0.5).", rich_help_panel=FLOW_PANEL)] = 0.0,
+    background_slope: Annotated[float, typer.Option("--background-slope", parser=Number("degrees"), help="Uniform inclination (degrees) along +x (east) added to bed and surface, for periodic tilted slabs (ISMIP-HOM: 0.5).", rich_help_panel=FLOW_PANEL)] = 0.0,
     transport: Annotated[Transport, typer.Option(help="Ice transport (001 Eq. 1): multiscale (adaptive long steps, 001 §5) or explicit (sub-stepped at the stability limit).")] = Transport.multiscale,
     no_substep: Annotated[bool, typer.Option("--no-substep", help="With --transport explicit: refuse a --dt above the stability limit instead of sub-stepping it.")] = False,
     erode: Annotated[bool, typer.Option("--erosion/--no-erosion", help="Erode the bed by abrasion and quarrying under the sliding ice (001 §6.1).")] = True,
@@ -71,7 +73,7 @@ def glaciate(
     ice: Annotated[Path | None, typer.Option("--ice", help="Write the final ice thickness (m).", rich_help_panel=OUTPUT_PANEL)] = None,
     velocity: Annotated[Path | None, typer.Option("--velocity", help="Write the surface velocity (GeoTIFF, 2 bands: vx east, vy along the rows = south; m/y) of the final geometry.", rich_help_panel=OUTPUT_PANEL)] = None,
     sliding: Annotated[Path | None, typer.Option("--sliding", help="Write the basal sliding speed (m/y) of the final geometry.", rich_help_panel=OUTPUT_PANEL)] = None,
-    snapshot_every: Annotated[float | None, typer.Option(help="Write the ice thickness every this many years: ICE_001.tif, ... after --ice (else OUT_ice_001.tif, ...).", rich_help_panel=OUTPUT_PANEL)] = None,
+    snapshot_every: Annotated[float | None, typer.Option(parser=POSITIVE_YEARS, help="Write the ice thickness every this many years: ICE_001.tif, ... after --ice (else OUT_ice_001.tif, ...).", rich_help_panel=OUTPUT_PANEL)] = None,
     band: Band = None,
     channel: Channel = None,
     dtype: DtypeOpt = Dtype.float32,
@@ -85,7 +87,7 @@ def glaciate(
 ) -> None:
     """Grow glaciers on a DEM (mass balance, ice flow, transport) and erode its bed (001). The progress bar shows the simulated time and the ice volume; OUT's JSON sidecar holds the ice-volume series. An ELA above every peak makes no ice: a note, and the bed is unchanged."""
     with reported_errors(verbose - quiet):
-        from unerode_cli.cli.common import say
+        from unerode_cli.cli.common import SUMMARY, say
         from unerode_cli.cli.progress import progress_bar
         from unerode_cli.jobs.glaciate import GlacierJob, plan, run_diagnostic, run_job
 
@@ -100,8 +102,8 @@ def glaciate(
         )
         prepared = plan(job)
         if diagnostic:
-            say(run_diagnostic(prepared), verbose - quiet)
+            say(run_diagnostic(prepared), verbose - quiet, SUMMARY)
             return
         with progress_bar(prepared.steps, "glaciate", verbose - quiet) as advance:
             summary = run_job(prepared, on_step=advance, on_note=lambda text: say(text, verbose - quiet))
-        say(summary, verbose - quiet)
+        say(summary, verbose - quiet, SUMMARY)

@@ -8,6 +8,18 @@ from typing import Annotated
 
 import typer
 
+from unerode_cli.cli.values import Number
+
+#: Parsers of kinds of numbers that several options share: a time span (years, > 0) and an
+#: elevation (m).
+POSITIVE_YEARS = Number("years", 0.0, above=True)
+METRES = Number("m")
+
+#: Help panels of the shared options: a few short panels keep long option names whole in an
+#: 80-column help (rich sizes the columns of each panel on its own rows).
+BOUNDARY_PANEL = "Boundaries"
+OUTPUT_PANEL = "Outputs"
+
 
 class Dtype(str, Enum):
     float32 = "float32"
@@ -25,16 +37,16 @@ InputDem = Annotated[Path, typer.Argument(help="Input heightfield (GeoTIFF, any 
 OutputDem = Annotated[Path, typer.Argument(help="Output heightfield; the format follows the extension (.tif, .exr, ...).")]
 Band = Annotated[int | None, typer.Option("--band", help="Band to read from a multi-band raster (1-based).")]
 Channel = Annotated[str | None, typer.Option("--channel", help="EXR channel to read (default: Y, else R, else the only float channel).")]
-Overwrite = Annotated[bool, typer.Option("--overwrite", help="Replace an existing output.")]
-Verbose = Annotated[int, typer.Option("--verbose", "-v", count=True, help="More messages (-vv: debug); tracebacks on errors.")]
-Quiet = Annotated[int, typer.Option("--quiet", "-q", count=True, help="Fewer messages.")]
-DtypeOpt = Annotated[Dtype, typer.Option("--dtype", help="Output sample type of GDAL outputs.")]
-Cog = Annotated[bool, typer.Option("--cog", help="Write a Cloud-Optimized GeoTIFF.")]
-CreationOptions = Annotated[list[str] | None, typer.Option("--co", help="GDAL creation option KEY=VALUE (repeatable).")]
-Preview = Annotated[Path | None, typer.Option("--preview", help="Also write a hillshade preview PNG of the output.")]
+Overwrite = Annotated[bool, typer.Option("--overwrite", help="Replace an existing output.", rich_help_panel=OUTPUT_PANEL)]
+Verbose = Annotated[int, typer.Option("--verbose", "-v", count=True, help="-v: one line per step and the traceback of an error; -vv: also each step's wall time (debug).")]
+Quiet = Annotated[int, typer.Option("--quiet", "-q", count=True, help="-q: no notes (summaries and errors remain); -qq: errors only.")]
+DtypeOpt = Annotated[Dtype, typer.Option("--dtype", help="Output sample type of GDAL outputs.", rich_help_panel=OUTPUT_PANEL)]
+Cog = Annotated[bool, typer.Option("--cog", help="Write a Cloud-Optimized GeoTIFF.", rich_help_panel=OUTPUT_PANEL)]
+CreationOptions = Annotated[list[str] | None, typer.Option("--co", help="GDAL creation option KEY=VALUE (repeatable).", rich_help_panel=OUTPUT_PANEL)]
+Preview = Annotated[Path | None, typer.Option("--preview", help="Also write a hillshade preview PNG of the output.", rich_help_panel=OUTPUT_PANEL)]
 Seed = Annotated[int, typer.Option("--seed", help="Random seed (recorded in the output's history).")]
 
 
-Outlets = Annotated[str, typer.Option("--outlets", help="Domain edges that drain out: all, none, or a comma list of N,E,S,W.")]
-SeaLevel = Annotated[float | None, typer.Option("--sea-level", help="Cells at or below this elevation (m) are outlets.")]
-Dirichlet = Annotated[Path | None, typer.Option("--dirichlet", help="Raster on the DEM's grid; non-zero cells are fixed-elevation outlet nodes.")]
+Outlets = Annotated[str, typer.Option("--outlets", help="Domain edges that drain out: all, none, or a comma list of N,E,S,W.", rich_help_panel=BOUNDARY_PANEL)]
+SeaLevel = Annotated[float | None, typer.Option("--sea-level", parser=METRES, help="Cells at or below this elevation (m) are outlets.", rich_help_panel=BOUNDARY_PANEL)]
+Dirichlet = Annotated[Path | None, typer.Option("--dirichlet", help="Raster on the DEM's grid; non-zero cells are fixed-elevation outlet nodes.", rich_help_panel=BOUNDARY_PANEL)]

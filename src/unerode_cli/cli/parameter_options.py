@@ -10,6 +10,7 @@ from typing import Annotated, Any
 
 import typer
 
+from unerode_cli.cli.values import ParameterValue, unit_suffix
 from unerode_cli.processes.parameters import ParamSpec
 
 VALUES_ARGUMENT = "parameter_values"
@@ -18,7 +19,7 @@ VALUES_ARGUMENT = "parameter_values"
 def option_help(spec: ParamSpec) -> str:
     """Help text with unit, default, range and whether a raster is accepted.
 
-    The bracket is escaped: rich would read ``[m/y; ...]`` as a markup tag and drop it."""
+    Brackets are escaped: rich would read ``[m/y; ...]`` as a markup tag and drop it."""
     bounds = []
     if spec.minimum is not None:
         bounds.append(f"≥ {spec.minimum:g}")
@@ -26,7 +27,9 @@ def option_help(spec: ParamSpec) -> str:
         bounds.append(f"≤ {spec.maximum:g}")
     extra = f"; {', '.join(bounds)}" if bounds else ""
     raster = "; a number or a raster on the DEM's grid" if spec.raster else ""
-    return f"{spec.help} \\[{spec.unit}; default {spec.default:g}{extra}{raster}]"
+    unit = unit_suffix(spec.unit).strip() or "dimensionless"
+    text = spec.help.replace("[", "\\[")
+    return f"{text} \\[{unit}; default {spec.default:g}{extra}{raster}]"
 
 
 def with_parameter_options(
@@ -58,7 +61,7 @@ def with_parameter_options(
             if spec.symbol and spec.symbol != spec.name:
                 names.append(f"--{spec.symbol.replace('_', '-')}")
             annotation = Annotated[str | None, typer.Option(
-                *names, help=option_help(spec), show_default=False,
+                *names, parser=ParameterValue(spec), help=option_help(spec), show_default=False,
                 rich_help_panel=panels[spec.name])]
             added.append(inspect.Parameter(spec.name, inspect.Parameter.KEYWORD_ONLY,
                                            default=None, annotation=annotation))

@@ -9,6 +9,7 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
+    METRES,
     Band,
     Channel,
     Cog,
@@ -24,6 +25,7 @@ from unerode_cli.cli.options import (
     Verbose,
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
+from unerode_cli.cli.values import Number
 from unerode_cli.particles.parameters import PARAMETERS
 from unerode_cli.particles.presets import PRESETS
 
@@ -48,18 +50,18 @@ def particle_erode(
     source: InputDem,
     output: OutputDem,
     preset: Annotated[str, typer.Option("--preset", help="Preset of 003 Table 1: rain, river, landslide, coastal, wind, underwater or volcano (described above); every value can be overridden.", rich_help_panel="Run")] = "rain",
-    particles: Annotated[int | None, typer.Option("--particles", help="Particles emitted per iteration (default: the preset's).", rich_help_panel="Run")] = None,
-    iterations: Annotated[int | None, typer.Option("--iterations", help="Iterations; the terrain is updated after each (default: the preset's).", rich_help_panel="Run")] = None,
+    particles: Annotated[int | None, typer.Option("--particles", min=1, help="Particles emitted per iteration (default: the preset's).", rich_help_panel="Run")] = None,
+    iterations: Annotated[int | None, typer.Option("--iterations", min=1, help="Iterations; the terrain is updated after each (default: the preset's).", rich_help_panel="Run")] = None,
     seed: Seed = 0,
-    threads: Annotated[int | None, typer.Option("--threads", help="Numba threads (default: all cores); the result does not depend on it.", rich_help_panel="Run")] = None,
+    threads: Annotated[int | None, typer.Option("--threads", min=1, help="Numba threads (default: all cores); the result does not depend on it.", rich_help_panel="Run")] = None,
     emission: Annotated[str | None, typer.Option("--emission", help="rain (over the domain or --rain-mask) or source (--source); default: the preset's, source when --source is given.", rich_help_panel="Emission")] = None,
     sources: Annotated[list[str] | None, typer.Option("--source", help="Source point X,Y in the DEM's CRS units (repeat for the vertices of a line), or a GeoJSON/WKT line file; default: the highest cell.", rich_help_panel="Emission")] = None,
-    spread: Annotated[float | None, typer.Option("--spread", help="Source particles start uniformly within this distance (m) of the point or line (default: the particle radius R).", rich_help_panel="Emission")] = None,
+    spread: Annotated[float | None, typer.Option("--spread", parser=Number("m", 0.0), help="Source particles start uniformly within this distance (m) of the point or line (default: the particle radius R).", rich_help_panel="Emission")] = None,
     rain_mask: Annotated[Path | None, typer.Option("--rain-mask", help="Raster on the DEM's grid of rain weights (≥ 0, unitless): where rain particles start.", rich_help_panel="Emission")] = None,
     emission_velocity: Annotated[str | None, typer.Option("--emission-velocity", help="Initial particle velocity VE,VN[,VU] (m/s, east, north, up; default 0).", rich_help_panel="Emission")] = None,
     velocity: Annotated[str | None, typer.Option("--velocity", help="Medium velocity field (003 Eq. 8): uniform:VE,VN[,VU] (m/s), sin[:AMPLITUDE,WAVELENGTH] (a northward AMPLITUDE·sin(2πx/WAVELENGTH), m/s and m: 003 Table 1 meanders; default 1 m/s and a quarter of the DEM's width), or a 2/3-band raster on the DEM's grid (east, north[, up] m/s). Default: still medium.", rich_help_panel="Medium")] = None,
     velocity_medium: Annotated[str | None, typer.Option("--velocity-medium", help="Where the velocity field acts: both, air (above --sea-level) or water (below); default: the preset's.", rich_help_panel="Medium")] = None,
-    sea_level: Annotated[float | None, typer.Option("--sea-level", help="Elevation (m) below which the medium is water (density rho_water, viscosity mu_water); default: air everywhere.", rich_help_panel="Medium")] = None,
+    sea_level: Annotated[float | None, typer.Option("--sea-level", parser=METRES, help="Elevation (m) below which the medium is water (density rho_water, viscosity mu_water); default: air everywhere.", rich_help_panel="Medium")] = None,
     layers: Annotated[Path | None, typer.Option("--layers", help="Multi-band raster on the DEM's grid of layer thicknesses (m), bottom layer first (003 §4.2); the base of the stack is the DEM minus their sum.", rich_help_panel="Layered terrain")] = None,
     materials: Annotated[Path | None, typer.Option("--materials", help="Materials table (CSV: name, erodibility K_eps in Pa^-a, critical_stress tau_c in Pa); replaces --k-eps and --tau-c.", rich_help_panel="Layered terrain")] = None,
     layer_materials: Annotated[str | None, typer.Option("--layer-materials", help="Material name of each band, bottom first, comma-separated (default: the band descriptions, else the table's rows in order).", rich_help_panel="Layered terrain")] = None,
@@ -67,8 +69,8 @@ def particle_erode(
     layers_out: Annotated[Path | None, typer.Option("--layers-out", help="Output layers (GeoTIFF, thicknesses in m, bottom first, the deposit layer on top, band descriptions = materials); default OUTPUT_layers.tif.", rich_help_panel="Layered terrain")] = None,
     change_map: Annotated[Path | None, typer.Option("--change-map", help="Write the elevation change Δh (m): < 0 erosion, > 0 deposition.", rich_help_panel="Outputs")] = None,
     paths: Annotated[Path | None, typer.Option("--paths", help="Write a GeoJSON of sampled particle paths: LineStrings x, y (DEM's CRS), z (m), with id, fate and times (s).", rich_help_panel="Outputs")] = None,
-    path_count: Annotated[int, typer.Option("--path-count", help="Paths sampled for --paths, evenly over the run's particles.", rich_help_panel="Outputs")] = 100,
-    path_stride: Annotated[int, typer.Option("--path-stride", help="Record a path point every this many time steps (and at death).", rich_help_panel="Outputs")] = 4,
+    path_count: Annotated[int, typer.Option("--path-count", min=1, help="Paths sampled for --paths, evenly over the run's particles.", rich_help_panel="Outputs")] = 100,
+    path_stride: Annotated[int, typer.Option("--path-stride", min=1, help="Record a path point every this many time steps (and at death).", rich_help_panel="Outputs")] = 4,
     band: Band = None,
     channel: Channel = None,
     dtype: DtypeOpt = Dtype.float32,
@@ -81,7 +83,7 @@ def particle_erode(
     parameter_values: dict[str, str | None] | None = None,
 ) -> None:
     with reported_errors(verbose - quiet):
-        from unerode_cli.cli.common import say
+        from unerode_cli.cli.common import SUMMARY, say
         from unerode_cli.cli.progress import progress_bar
         from unerode_cli.jobs.particle_erode import ParticleJob, plan, run_job
         from unerode_cli.run.outputs import Outputs
@@ -100,7 +102,7 @@ def particle_erode(
         with progress_bar(prepared.iterations, "particle-erode", verbose - quiet) as advance:
             summary = run_job(prepared, on_iteration=lambda done: advance(f"iteration {done}"),
                               on_note=lambda text: say(text, verbose - quiet))
-        say(summary, verbose - quiet)
+        say(summary, verbose - quiet, SUMMARY)
 
 
 particle_erode.__doc__ = (

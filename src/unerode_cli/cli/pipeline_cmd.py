@@ -18,6 +18,7 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import Quiet, Verbose
+from unerode_cli.cli.values import Command, OptionParser
 
 EXAMPLES = """\
 Examples:
@@ -57,7 +58,7 @@ OUTPUT_PARAMETERS = {"output", "png", "preview", "change_map"}
 INPUT_PARAMETERS = {"source", "dem", "params", "dirichlet"}
 
 
-@pipeline_app.command("run", epilog=EXAMPLES)
+@pipeline_app.command("run", epilog=EXAMPLES, cls=Command)
 def run(
     spec: Annotated[Path, typer.Argument(help="Pipeline spec (YAML): version, vars, workdir, steps.")],
     resume: Annotated[bool, typer.Option("--resume", help="Skip the steps finished by an earlier run whose command line, inputs and outputs are unchanged.")] = False,
@@ -72,14 +73,14 @@ def run(
     """
     verbosity = verbose - quiet
     with reported_errors(verbosity):
-        from unerode_cli.cli.common import say
+        from unerode_cli.cli.common import SUMMARY, say
         from unerode_cli.pipeline.pipeline_run import StepFailed, run_pipeline
         from unerode_cli.pipeline.pipeline_run import dry_run as plan_lines
         from unerode_cli.pipeline.spec import load_spec, parse_var_overrides, resolve
 
         pipeline = resolve(load_spec(spec), spec, command_schemas(), parse_var_overrides(var or []))
         if dry_run:
-            lines = plan_lines(pipeline, resume)
+            lines = plan_lines(pipeline, resume, verbosity)
             say(f"dry run of {len(pipeline.steps)} step(s) in {pipeline.workdir}; nothing is run.", verbosity)
             for line in lines:
                 typer.echo(line)
@@ -89,7 +90,8 @@ def run(
         except StepFailed as exc:
             print(f"error: {exc}", file=sys.stderr)
             raise typer.Exit(exc.exit_code) from None
-        say(f"pipeline finished: {len(report.ran)} step(s) ran, {len(report.skipped)} skipped.", verbosity)
+        say(f"pipeline finished: {len(report.ran)} step(s) ran, {len(report.skipped)} skipped.", verbosity,
+            SUMMARY)
 
 
 def command_schemas() -> dict[str, Any]:
@@ -142,12 +144,21 @@ def _schema(param: Any, flags: tuple[str, ...]) -> Any:
     role = "other"
     if type_name == "path":
         role = "output" if _is_output(param) else "input"
+    parser = _option_parser(param)
     return ParamSchema(
         name=param.name, flags=flags, kind=kind, type=type_name, role=role, choices=choices,
         minimum=getattr(param, "min", None), maximum=getattr(param, "max", None),
         required=bool(param.required),
         off_flags=tuple(o for o in getattr(param, "secondary_opts", ()) if o.startswith("--")),
+        parse=parser.parse if parser is not None else None,
     )
+
+
+def _option_parser(param: Any) -> OptionParser | None:
+    """The parser of a typer parameter's values (:mod:`unerode_cli.cli.values`), if it has one."""
+    info = getattr(getattr(param, "type_descriptor", None), "parameter_info", None)
+    parser = getattr(info, "parser", None)
+    return parser if isinstance(parser, OptionParser) else None
 
 
 def _is_output(param: Any) -> bool:

@@ -9,6 +9,7 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import Band, Channel, InputDem, Overwrite, Quiet, Verbose
+from unerode_cli.cli.values import Number
 
 
 def preview(
@@ -16,7 +17,7 @@ def preview(
     png: Annotated[Path, typer.Argument(help="Output PNG.")],
     title: Annotated[str | None, typer.Option(help="Title (default: the DEM's file name).")] = None,
     cmap: Annotated[str, typer.Option(help="Colour map: sea-land (blues below 0 m) or any matplotlib one.")] = "sea-land",
-    exaggeration: Annotated[float, typer.Option(help="Vertical exaggeration of the hillshade.")] = 1.0,
+    exaggeration: Annotated[float, typer.Option(parser=Number(minimum=0.0, above=True), help="Vertical exaggeration of the hillshade (> 0).")] = 1.0,
     band: Band = None,
     channel: Channel = None,
     overwrite: Overwrite = False,
@@ -30,6 +31,7 @@ def preview(
         from unerode_cli.cli.common import load
         from unerode_cli.errors import InputError
         from unerode_cli.io.paths import check_output
+        from unerode_cli.run.outputs import check_previewable
         from unerode_cli.run.outputs import preview as write_preview
 
         check_output(png, overwrite, (dem,))
@@ -38,5 +40,6 @@ def preview(
         if cmap != "sea-land" and cmap not in colormaps:
             raise InputError(f"unknown colour map '{cmap}'.")
         terrain = load(dem, band, channel)
+        check_previewable(terrain, dem)
         write_preview(terrain, png, title=title if title is not None else dem.name,
                        cmap=cmap, vertical_exaggeration=exaggeration)

@@ -20,6 +20,7 @@ from unerode_cli.cli.options import (
     Seed,
     Verbose,
 )
+from unerode_cli.cli.values import Number
 
 
 class Kind(str, Enum):
@@ -30,10 +31,10 @@ class Kind(str, Enum):
 def synth(
     output: OutputDem,
     size: Annotated[int, typer.Option(help="Grid size in cells (square).", min=8, max=16384)] = 512,
-    dx: Annotated[float, typer.Option("--dx", help="Cell size (m).")] = 30.0,
+    dx: Annotated[float, typer.Option("--dx", parser=Number("m", 0.0, above=True), help="Cell size (m, > 0).")] = 30.0,
     seed: Seed = 1,
     kind: Annotated[Kind, typer.Option(help="fractal noise, or a mountain range draining south to a sea edge.")] = Kind.mountain,
-    relief: Annotated[float, typer.Option(help="Land relief (m).")] = 2000.0,
+    relief: Annotated[float, typer.Option(parser=Number("m", 0.0), help="Land relief (m, ≥ 0).")] = 2000.0,
     crs: Annotated[str, typer.Option(help="CRS of the output (EPSG code, WKT or PROJ string).")] = "EPSG:32632",
     centre: Annotated[str | None, typer.Option(help="Centre X,Y in CRS units (lon,lat if geographic); default: the CRS's area of use.")] = None,
     sea_nodata: Annotated[bool, typer.Option("--sea-nodata", help="Make cells below 0 m nodata (a coastline clipped DEM).")] = False,

@@ -52,6 +52,8 @@ class Series:
             (negative = lower than today), ``""`` when unknown.
         note: how the values were derived from the source table (column, shifts), for
             provenance; empty when nothing was changed.
+        changes: what :func:`parse_table` changed in the rows as written, one sentence each
+            (rows dropped, rows sorted), to tell the user; empty when nothing was.
 
     The valid range of ages is ``[start_ka, end_ka]``; :meth:`at` refuses ages outside it
     (no extrapolation).
@@ -62,6 +64,7 @@ class Series:
     name: str = "value"
     unit: str = ""
     note: str = ""
+    changes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         age = np.array(self.age_ka, dtype=np.float64).reshape(-1)
@@ -136,7 +139,8 @@ def parse_table(text: str, kind: str, source: str, column: str | None = None) ->
         - line endings LF, CRLF or CR, mixed.
 
     Rows whose age or chosen value is missing are dropped; rows are sorted by age; two rows for
-    the same age are refused.
+    the same age are refused. What was dropped or sorted is said in the ``changes`` of the
+    result.
 
     Kinds and value column (``column``: a column name from the header line, or a 1-based
     column number written as text, e.g. ``"3"``):
@@ -170,9 +174,14 @@ def parse_table(text: str, kind: str, source: str, column: str | None = None) ->
     index = _value_column(kind, source, column, names, width)
     age, value = rows[:, 0], rows[:, index]
     keep = np.isfinite(age) & np.isfinite(value)
+    changes = _dropped(source, lines[~keep])
     age, value, lines = age[keep], value[keep], lines[keep]
     if age.size < 2:
         raise ValueError(f"{source} has fewer than two rows with both an age and a value")
+    backward = np.flatnonzero(np.diff(age) < 0.0)
+    if backward.size:
+        changes += (f"the rows of {source} are not in age order (line {lines[backward[0] + 1]} is "
+                    "younger than the row before it); they were sorted by age",)
     order = np.argsort(age, kind="stable")
     age, value, lines = age[order], value[order], lines[order]
     same = np.flatnonzero(np.diff(age) == 0.0)
@@ -188,7 +197,15 @@ def parse_table(text: str, kind: str, source: str, column: str | None = None) ->
         if offset != 0.0:
             value = value - offset
             note += f", shifted by {-offset:+.4g} m so that 0 ka = 0 m"
-    return Series(age, value, name=name, unit=_UNITS[kind], note=note)
+    return Series(age, value, name=name, unit=_UNITS[kind], note=note, changes=changes)
+
+
+def _dropped(source: str, lines: np.ndarray) -> tuple[str, ...]:
+    """The sentence saying which rows (their 1-based ``lines``) were dropped, if any."""
+    if not lines.size:
+        return ()
+    return (f"{lines.size} row(s) of {source} without an age or a value were left out (first on "
+            f"line {lines[0]})",)
 
 
 def _read_rows(text: str, source: str) -> tuple[list[str] | None, np.ndarray, np.ndarray]:

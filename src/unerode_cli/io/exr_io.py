@@ -27,9 +27,12 @@ FLOAT_TYPES = (np.float16, np.float32)
 
 
 def read_exr(path: Path, channel: str | None = None) -> Terrain:
-    """Read a heightfield channel: ``channel`` if given, else Y, else R, else the only float one."""
+    """Read a heightfield channel: ``channel`` if given, else Y, else R, else the only float one.
+
+    Channels are read one by one (an RGB image gives R, G and B, never one grouped "RGB").
+    """
     try:
-        with OpenEXR.File(str(path)) as exr:
+        with OpenEXR.File(str(path), separate_channels=True) as exr:
             # The header mapping is only valid while the file is open: copy what is needed.
             attrs = {k[len(PREFIX):]: v for k, v in exr.header().items() if k.startswith(PREFIX)}
             channels = {name: ch.pixels for name, ch in exr.channels().items()}
@@ -80,7 +83,7 @@ def _pick_channel(channels: dict[str, np.ndarray], wanted: str | None, path: Pat
         if chosen.dtype not in FLOAT_TYPES:
             raise InputError(f"channel '{wanted}' of {path} is not a float channel.")
         return chosen
-    floats = {n: c for n, c in channels.items() if c.dtype in FLOAT_TYPES and c.ndim == 2}
+    floats = {n: c for n, c in channels.items() if c.dtype in FLOAT_TYPES}
     for name in ("Y", "R"):
         if name in floats:
             return floats[name]

@@ -3,18 +3,31 @@ GDAL format chosen by the output's extension."""
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import logging
+import os
+import re
 import sys
+import tempfile
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from logging.handlers import BufferingHandler
 from pathlib import Path
 
 import numpy as np
 import rasterio
+import rasterio.shutil
+from affine import Affine
+from pyproj import CRS
+from rasterio._err import CPLE_BaseError  # what GDAL's copy raises (not re-exported publicly)
 from rasterio.crs import CRS as RioCRS
-from rasterio.drivers import driver_from_extension
-from rasterio.errors import DriverRegistrationError, RasterioIOError
+from rasterio.errors import RasterioError, RasterioIOError
+from rasterio.io import MemoryFile
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.cellsize import cell_size_metres
+from unerode_cli.io.paths import atomic_path, place, staging_folder
 from unerode_cli.io.terrain import Terrain
 
 #: Metadata carried from input to output: these keys, and every key starting with "UNERODE_".
@@ -39,6 +52,53 @@ GTIFF_DEFAULTS = {
 COG_DEFAULTS = {"COMPRESS": "DEFLATE", "PREDICTOR": "YES", "BIGTIFF": "IF_SAFER",
                 "NUM_THREADS": "ALL_CPUS"}
 
+#: Map projections (EPSG method names) that GDAL's netCDF writer turns into CF grid mappings.
+#: On some others (Hotine oblique Mercator, Krovak, Equal Earth) it aborts the whole process, so
+#: a netCDF output in any other projection is refused.
+CF_METHODS = frozenset({
+    "Transverse Mercator", "Lambert Azimuthal Equal Area", "Lambert Conic Conformal (1SP)",
+    "Lambert Conic Conformal (2SP)", "Albers Equal Area", "Mercator (variant A)", "Mercator (variant B)",
+    "Popular Visualisation Pseudo Mercator", "Polar Stereographic (variant A)",
+    "Polar Stereographic (variant B)", "Oblique Stereographic", "Lambert Cylindrical Equal Area",
+})
+
+#: What GDAL raises when a dataset cannot be written.
+_WRITE_ERRORS = (RasterioError, CPLE_BaseError, ValueError)
+
+
+@dataclass(frozen=True)
+class Format:
+    """A GDAL output format.
+
+    Attributes:
+        driver: GDAL driver name.
+        by_copy: build the raster in memory, then copy it into the format (drivers that can only
+            copy a dataset, or that keep nodata only when it is known at creation).
+        defaults: creation options applied unless ``--co`` overrides them.
+        projections: the map projections (EPSG method names) it can hold besides geographic
+            coordinates; None: any.
+    """
+
+    driver: str
+    by_copy: bool = False
+    defaults: Mapping[str, str] = field(default_factory=dict)
+    projections: frozenset[str] | None = None
+
+
+_GTIFF = Format("GTiff", defaults=GTIFF_DEFAULTS)
+_COG = Format("COG", defaults=COG_DEFAULTS)
+
+#: Output formats by (lower-case) extension; those whose driver the bundled GDAL lacks are refused.
+FORMATS = {
+    ".tif": _GTIFF,
+    ".tiff": _GTIFF,
+    ".asc": Format("AAIGrid", by_copy=True),  # Arc/Info ASCII grid (+ .prj)
+    ".img": Format("HFA"),  # Erdas Imagine
+    ".bil": Format("ENVI", defaults={"INTERLEAVE": "BIL"}),  # ENVI band-interleaved (+ .hdr)
+    ".nc": Format("netCDF", by_copy=True, projections=CF_METHODS),  # rasterio opens netCDF read-only
+    ".gpkg": Format("GPKG", by_copy=True),  # GeoPackage gridded coverage (float32 at most)
+}
+
 
 @dataclass(frozen=True)
 class WriteOptions:
@@ -60,7 +120,9 @@ def read_gdal(path: Path, band: int | None = None) -> Terrain:
     try:
         src = rasterio.open(path)
     except RasterioIOError as exc:
-        raise InputError(f"{path} is not a raster that GDAL can read ({_first_line(exc)}).") from None
+        if "not recognized as being in a supported file format" in str(exc):
+            raise InputError(f"{path} is not a raster that GDAL can read ({_first_line(exc)}).") from None
+        raise _corrupt(path, exc) from None
     with src:
         if band is None:
             if src.count > 1:
@@ -69,8 +131,11 @@ def read_gdal(path: Path, band: int | None = None) -> Terrain:
             band = 1
         if not 1 <= band <= src.count:
             raise InputError(f"{path} has {src.count} band(s); band {band} does not exist.")
-        data = src.read(band).astype(np.float64)
-        valid = src.read_masks(band) > 0
+        try:
+            data = src.read(band).astype(np.float64)
+            valid = src.read_masks(band) > 0
+        except RasterioIOError as exc:
+            raise _corrupt(path, exc) from None
         crs_wkt = src.crs.to_wkt() if src.crs else ""
         size = cell_size_metres(crs_wkt, src.transform, data.shape, str(path))
         tags = {k: v for k, v in src.tags().items() if kept(k)}
@@ -87,17 +152,108 @@ def read_gdal(path: Path, band: int | None = None) -> Terrain:
 
 
 def write_gdal(terrain: Terrain, path: Path, options: WriteOptions) -> None:
-    """Write ``terrain`` to ``path`` (a temporary path with the final extension: see
-    paths.atomic_path).
+    """Write ``terrain`` to ``path`` in the format of its extension, atomically.
 
-    The driver follows the extension of ``path``; GeoTIFF gets DEFLATE,
-    floating-point predictor, 256² tiles and BIGTIFF when needed, or COG layout with ``cog``.
+    GDAL writes under the output's own name into a temporary folder beside it, so that every
+    name it derives (side files such as .hdr, .prj, .aux.xml; a GeoPackage's table) is the
+    final one; the side files are then moved beside ``path`` and the raster renamed onto it
+    (paths.atomic_path). Nothing is left behind should the write fail.
+
+    GeoTIFF gets DEFLATE, floating-point predictor, 256² tiles and BIGTIFF when needed, or COG
+    layout with ``options.cog``.
     """
-    driver = _driver_for(path, options.cog)
+    with staging_folder(path) as folder:
+        staged = folder / path.name
+        try:
+            _write(terrain, staged, options)
+        except _WRITE_ERRORS as exc:
+            raise InputError(f"cannot write {path}: {_first_line(exc)}.") from None
+        for side in folder.iterdir():
+            if side != staged:
+                place(side, path.with_name(side.name))
+        with atomic_path(path) as tmp:
+            os.replace(staged, tmp)
+
+
+def check_gdal_writable(path: Path, options: WriteOptions) -> None:
+    """Refuse, before any work, a GDAL output (``path`` has one of writable_extensions()) that
+    could not be written: ``--cog`` on a non-GeoTIFF, a cell type the driver cannot hold, and
+    creation options the driver does not know or whose value it does not allow. A 2 × 2 raster
+    is written with the same options to a temporary folder to find out."""
+    output_format(path, options.cog)
+    rejected = _probe(path.suffix.lower(), options.dtype, options.cog,
+                      tuple(sorted(options.creation_options.items())))
+    if rejected:
+        raise InputError(f"cannot write {path}: {rejected}.")
+
+
+@functools.cache
+def writable_extensions() -> tuple[str, ...]:
+    """The extensions of FORMATS whose driver the bundled GDAL has."""
+    with rasterio.Env() as env:
+        drivers = env.drivers()
+    return tuple(suffix for suffix, fmt in FORMATS.items() if fmt.driver in drivers)
+
+
+def output_format(path: Path, cog: bool) -> Format:
+    """The format that the extension of ``path`` (one of writable_extensions()) names: COG for a
+    .tif with ``cog``."""
+    suffix = path.suffix.lower()
+    if cog and suffix not in (".tif", ".tiff"):
+        raise InputError(f"--cog needs a .tif output, got {path}.")
+    return _COG if cog else FORMATS[suffix]
+
+
+@functools.cache
+def _probe(suffix: str, dtype: str, cog: bool, creation_options: tuple[tuple[str, str], ...]) -> str:
+    """Why a raster with these settings cannot be written ("" when it can)."""
+    options = WriteOptions(dtype, cog, dict(creation_options))
+    driver = output_format(Path(f"probe{suffix}"), cog).driver
+    probe = Terrain(np.zeros((2, 2)), 1.0, 1.0, RioCRS.from_epsg(32632).to_wkt(),
+                    Affine(1.0, 0.0, 500000.0, 0.0, -1.0, 5000000.0))
+    with tempfile.TemporaryDirectory() as folder, _gdal_warnings() as warnings:
+        try:
+            _write(probe, Path(folder) / f"probe{suffix}", options)
+        except _WRITE_ERRORS as exc:
+            detail = _first_line(exc).replace(f"probe{suffix}: ", "")
+            return f"GDAL's {driver} driver cannot write {dtype} cells{_with_co(options)} ({detail})"
+    messages = [re.sub(r"^CPLE_\w+ in ", "", r.getMessage()).rstrip(".") for r in warnings.buffer]
+    for key, value in options.creation_options.items():
+        said = [m for m in messages if re.search(rf"\b{re.escape(key)}\b", m)]
+        if said:
+            return f"--co {key}={value} is not accepted by GDAL's {driver} driver ({said[0]})"
+    return ""
+
+
+def _with_co(options: WriteOptions) -> str:
+    entries = [f"--co {k}={v}" for k, v in options.creation_options.items()]
+    return f" with {', '.join(entries)}" if entries else ""
+
+
+@contextlib.contextmanager
+def _gdal_warnings() -> Iterator[BufferingHandler]:
+    """Collect (in ``.buffer``) the GDAL warnings, which rasterio logs, issued inside the block."""
+    handler = BufferingHandler(capacity=10_000)
+    handler.setLevel(logging.WARNING)
+    logger = logging.getLogger("rasterio._env")
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.WARNING)
+    try:
+        yield handler
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
+def _write(terrain: Terrain, path: Path, options: WriteOptions) -> None:
+    """Write ``terrain`` to ``path`` with GDAL (raises GDAL's errors, and ValueError for a
+    projection the format cannot hold)."""
+    fmt = output_format(path, options.cog)
+    _check_projection(fmt, terrain.crs_wkt)
     nodata = output_nodata(terrain)
     data = np.where(terrain.nodata_mask, nodata, terrain.elevation).astype(options.dtype)
-    profile = {
-        "driver": driver,
+    layout = {
         "height": terrain.shape[0],
         "width": terrain.shape[1],
         "count": 1,
@@ -106,21 +262,35 @@ def write_gdal(terrain: Terrain, path: Path, options: WriteOptions) -> None:
         "transform": terrain.transform,
         "nodata": nodata,
     }
-    if driver == "GTiff":
-        profile.update(GTIFF_DEFAULTS)
-    elif driver == "COG":
-        profile.update(COG_DEFAULTS)
-    if driver in ("GTiff", "COG") and np.issubdtype(np.dtype(options.dtype), np.integer):
-        profile["PREDICTOR"] = "2"  # horizontal differencing: the floating-point one needs floats
-    profile.update(options.creation_options)
-    try:
-        with rasterio.open(path, "w", **profile) as dst:
-            dst.write(data, 1)
-            dst.update_tags(**{k: v for k, v in terrain.tags.items() if kept(k)})
-            if "UNIT" in terrain.tags:
-                dst.units = (terrain.tags["UNIT"],)
-    except (RasterioIOError, DriverRegistrationError, ValueError) as exc:
-        raise InputError(f"cannot write {path.name}: {_first_line(exc)}.") from None
+    creation = dict(fmt.defaults)
+    if fmt.driver in ("GTiff", "COG") and np.issubdtype(np.dtype(options.dtype), np.integer):
+        creation["PREDICTOR"] = "2"  # horizontal differencing: the floating-point one needs floats
+    creation.update(options.creation_options)
+    if not fmt.by_copy:
+        with rasterio.open(path, "w", driver=fmt.driver, **layout, **creation) as dst:
+            _fill(dst, data, terrain.tags)
+        return
+    with MemoryFile() as memory, memory.open(driver="GTiff", **layout) as staged:
+        _fill(staged, data, terrain.tags)
+        rasterio.shutil.copy(staged, path, driver=fmt.driver, **creation)
+
+
+def _check_projection(fmt: Format, crs_wkt: str) -> None:
+    """Raise ValueError if ``fmt`` cannot hold the map projection of ``crs_wkt``."""
+    if fmt.projections is None or not crs_wkt:
+        return
+    operation = CRS.from_wkt(crs_wkt).coordinate_operation
+    if operation is not None and operation.method_name not in fmt.projections:
+        raise ValueError(f"the {fmt.driver} format cannot hold the projection '{operation.method_name}'; "
+                         "write a .tif instead")
+
+
+def _fill(dst: rasterio.io.DatasetWriter, data: np.ndarray, tags: dict[str, str]) -> None:
+    """Write the band, the kept tags and the unit into an open dataset."""
+    dst.write(data, 1)
+    dst.update_tags(**{k: v for k, v in tags.items() if kept(k)})
+    if "UNIT" in tags:
+        dst.units = (tags["UNIT"],)
 
 
 def output_nodata(terrain: Terrain) -> float | None:
@@ -139,16 +309,11 @@ def output_nodata(terrain: Terrain) -> float | None:
     return float("nan") if np.any(valid == np.float32(candidate)) else candidate
 
 
-def _driver_for(path: Path, cog: bool) -> str:
-    suffix = path.suffix
-    if suffix.lower() in (".tif", ".tiff"):
-        return "COG" if cog else "GTiff"
-    if cog:
-        raise InputError("--cog needs a .tif output.")
-    try:
-        return driver_from_extension(suffix)
-    except ValueError:
-        raise InputError(f"no raster format is known for the extension '{suffix}'.") from None
+def _corrupt(path: Path, exc: Exception) -> InputError:
+    """The error for a raster GDAL recognises but cannot read through (the cause GDAL gives
+    for "Read failed" is in ``exc.__cause__``)."""
+    cause = exc.__cause__ or exc
+    return InputError(f"{path} is truncated or corrupt ({_first_line(cause)}).")
 
 
 def _first_line(exc: Exception) -> str:

@@ -11,7 +11,9 @@ a raster path; parameters may also be grouped under the name of the process they
       k_th: 0.008
       talus_angle: 32
 
-Values given on the command line win over the file's.
+Values given on the command line win over the file's. A parameter given twice (``K`` and
+``k``, or at the top level and in its process's group) is refused, and so is a group of a
+process that the run does not run: the file is read for the processes of ``--process`` only.
 """
 
 from __future__ import annotations
@@ -34,20 +36,33 @@ def read_parameter_file(path: Path, processes: Mapping[str, Sequence[ParamSpec]]
             parameter of one of them, or the name of one of them holding such parameters.
 
     Raises:
-        InputError: unreadable or malformed file, unknown name, or a value that is neither a
-            number nor a path.
+        InputError: unreadable or malformed file, unknown name, a parameter given twice, a
+            group of a process not in ``processes``, or a value that is neither a number nor a
+            path.
     """
     document = read_yaml_mapping(path, "the parameter file",
                                  "a mapping of parameter names to values")
     every = _lookup([spec for specs in processes.values() for spec in specs])
     values: dict[str, str] = {}
+    given_as: dict[str, str] = {}
+
+    def put(name: str, key: str, value: Any) -> None:
+        if name in values:
+            raise InputError(f"the parameter file {path} gives {name} twice, as '{given_as[name]}' "
+                             f"and as '{key}'; keep one.")
+        values[name], given_as[name] = _text(value, key, path), key
+
     for key, value in document.items():
         if isinstance(key, str) and key in processes and isinstance(value, dict):
             own = _lookup(processes[key])
             for name, item in value.items():
-                values[_name(own, name, path, f"process {key}")] = _text(item, name, path)
+                put(_name(own, name, path, f"process {key}"), f"{key}.{name}", item)
+        elif isinstance(value, dict):
+            raise InputError(f"the parameter file {path} groups parameters under '{key}', which is not "
+                             f"a process of this run ({', '.join(processes)}): add it to --process "
+                             "or remove the group.")
         else:
-            values[_name(every, key, path, "the processes of this run")] = _text(value, key, path)
+            put(_name(every, key, path, "the processes of this run"), str(key), value)
     return values
 
 

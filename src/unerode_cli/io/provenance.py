@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from unerode_cli import __version__
-from unerode_cli.io.json_files import write_json
+from unerode_cli.io.json_files import jsonable, to_json, write_json
 from unerode_cli.io.terrain import Terrain
 
 HISTORY_TAG = "UNERODE_HISTORY"
@@ -20,7 +20,7 @@ def history_entry(command: str, parameters: dict[str, Any], seed: int | None = N
     return {
         "command": command,
         "version": __version__,
-        "parameters": {k: _jsonable(v) for k, v in parameters.items()},
+        "parameters": jsonable(parameters),
         "seed": seed,
         "argv": sys.argv,
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -41,24 +41,17 @@ def history(terrain: Terrain) -> list[dict[str, Any]]:
 
 def append_history(terrain: Terrain, entry: dict[str, Any]) -> None:
     """Append ``entry`` to the terrain's history tag (in place on the output terrain)."""
-    terrain.tags[HISTORY_TAG] = json.dumps(history(terrain) + [entry])
+    terrain.tags[HISTORY_TAG] = to_json(history(terrain) + [entry])
+
+
+def sidecar_path(output: Path) -> Path:
+    """``OUT.tif`` → ``OUT.tif.json``: where an output's sidecar is written."""
+    return output.with_name(output.name + ".json")
 
 
 def write_sidecar(output: Path, entry: dict[str, Any], statistics: dict[str, Any]) -> Path:
     """Write ``OUTPUT.json`` beside an output: the history entry plus run statistics."""
-    sidecar = output.with_name(output.name + ".json")
-    payload = dict(entry, statistics={k: _jsonable(v) for k, v in statistics.items()})
+    sidecar = sidecar_path(output)
+    payload = dict(entry, statistics=statistics)
     write_json(sidecar, payload)
     return sidecar
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, Path):
-        return str(value)
-    if hasattr(value, "item") and getattr(value, "ndim", 1) == 0:
-        return value.item()
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    return value

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 from affine import Affine
 
+from unerode_cli.errors import InputError
 from unerode_cli.grid import Grid
 
 
@@ -44,6 +46,12 @@ class Terrain:
     def grid(self) -> Grid:
         """The computational grid (cell sizes and domain mask)."""
         return Grid(self.dx, self.dy, np.isfinite(self.elevation))
+
+    def check_valid(self, source: Path | str) -> None:
+        """Refuse (InputError) a heightfield without a single valid cell, before any work;
+        ``source`` names it in the message."""
+        if self.nodata_mask.all():
+            raise InputError(f"{source} has no valid cell (every cell is nodata or NaN).")
 
     def with_elevation(self, elevation: np.ndarray) -> Terrain:
         """A copy with new elevations (same georeferencing); nodata cells stay nodata."""

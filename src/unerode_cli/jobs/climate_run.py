@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,17 @@ from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.yaml_files import read_yaml_mapping
 from unerode_cli.run.boundaries import Boundaries, boundaries_from_options
-from unerode_cli.run.outputs import AGE_TAG, PHASE_TAG, SEA_TAG, TIME_TAG, Outputs, save
+from unerode_cli.run.divergence import DivergenceGuard, max_rate
+from unerode_cli.run.outputs import (
+    AGE_TAG,
+    PHASE_TAG,
+    SEA_TAG,
+    TIME_TAG,
+    Outputs,
+    check_png,
+    check_raster,
+    save,
+)
 from unerode_cli.run.parameter_maps import resolve
 from unerode_cli.run.registry import (
     REGISTRY,
@@ -146,6 +157,9 @@ def _steps(job: ClimateJob) -> int:
         raise InputError(f"--direction {job.direction} does not match --from {job.from_ka:g} "
                          f"--to {job.to_ka:g} ka, which runs {wanted} in time.")
     count = abs(job.to_ka - job.from_ka) * 1000.0 / job.dt
+    if count < 0.5:
+        raise InputError(f"--dt {job.dt:g} years is longer than the span {job.from_ka:g}–{job.to_ka:g} ka "
+                         "of the run.")
     if abs(count - round(count)) > 1e-9 * max(1.0, count):
         raise InputError(f"the span {job.from_ka:g}–{job.to_ka:g} ka is not a whole number of "
                          f"--dt {job.dt:g} year steps.")
@@ -195,8 +209,9 @@ def _fingerprint(job: ClimateJob) -> str:
     return digest.hexdigest()
 
 
-def plan(job: ClimateJob) -> PreparedClimateRun:
-    """Check everything before the first step: options, outputs, inputs, chronology range."""
+def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> PreparedClimateRun:
+    """Check everything before the first step: options, outputs, inputs, chronology range;
+    ``on_note`` hears what was changed in the tables as read (rows left out or sorted)."""
     names = parse_process_list(job.process, job.backward)
     steps = _steps(job)
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co,
@@ -208,14 +223,19 @@ def plan(job: ClimateJob) -> PreparedClimateRun:
         if round(age, 9) not in step_ends:
             raise InputError(f"snapshot age {age:g} ka is not the end of a step of the run "
                              f"({job.from_ka:g} → {job.to_ka:g} ka by {job.dt:g} years).")
-    for path in [timeline_path(job.output), chronology_png_path(job.output),
-                 *[snapshot_path(job.output, a) for a in job.snapshots_ka]]:
-        check_output(path, job.overwrite or job.resume, (job.source,))
+    _check_checkpoint(job)
+    replace = job.overwrite or job.resume
+    for path in [snapshot_path(job.output, a) for a in job.snapshots_ka]:
+        check_raster(path, outputs.options, replace, (job.source,))
+    check_output(timeline_path(job.output), replace, (job.source,))
+    check_png(chronology_png_path(job.output), replace, (job.source,))
     if job.checkpoint_every < 1:
         raise InputError("--checkpoint-every must be at least 1 step.")
     terrain = read_terrain(job.source)
-    chronology = read_series(job.chronology, job.chronology_kind)
-    sea = read_series(job.sea_level_file, "sea-level") if job.sea_level_file else None
+    terrain.check_valid(job.source)
+    outputs.check_source(terrain, job.source)
+    chronology = read_series(job.chronology, job.chronology_kind, on_note=on_note)
+    sea = read_series(job.sea_level_file, "sea-level", on_note=on_note) if job.sea_level_file else None
     mapping = SeaLevelMapping(*job.d18o_mapping) if job.d18o_mapping else DEFAULT_MAPPING
     forcing = _forcing(job, steps, chronology, sea, mapping)
     try:
@@ -240,6 +260,16 @@ def plan(job: ClimateJob) -> PreparedClimateRun:
         downstream = downstream_mask(terrain.elevation, job.downstream_below, mask)
     return PreparedClimateRun(job, terrain, names, base, schedule, forcing, nodes, downstream,
                               steps, outputs, chronology, _fingerprint(job))
+
+
+def _check_checkpoint(job: ClimateJob) -> None:
+    """A checkpoint left by an unfinished run is continued with --resume or replaced with
+    --overwrite, never silently."""
+    path = checkpoint_path(job.output)
+    if path.exists() and not (job.resume or job.overwrite):
+        raise InputError(f"an unfinished run left its checkpoint {path}; pass --resume to continue it "
+                         "or --overwrite to start afresh.")
+    check_output(path, True, (job.source,))
 
 
 def _step_values(prepared: PreparedClimateRun, k: int) -> tuple[dict[str, Any], dict[str, float]]:
@@ -273,6 +303,8 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
     last = prepared.steps if job.max_steps is None else min(prepared.steps, first + job.max_steps)
     snapshots = {round(a, 9) for a in job.snapshots_ka}
     noted: set[str] = set()
+    guard = DivergenceGuard(terrain.elevation, max_rate(prepared.base_values.get("uplift", 0.0)),
+                            "lower --dt or the rates (K, k_th), or drop a process that runs away backward")
 
     def note_once(message: str) -> None:
         """Pass a sub-stepping note on at its first climate step only (one per process)."""
@@ -288,12 +320,8 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
         before = h.copy()
         h, report = run(h, _processes(prepared, values, sea_end), signed_dt, 1,
                         job.allow_substeps, None, note_once)
+        guard.check(h, (k + 1) * signed_dt, f"at {forcing.end_ka[k]:g} ka")
         change = np.abs(h - before)[~terrain.nodata_mask]
-        if not np.isfinite(change).all():
-            raise RuntimeError(
-                f"the run diverged at {forcing.end_ka[k]:g} ka (elevations are no longer finite); "
-                "lower --dt or the rates (K, k_th), or drop a process that runs away backward"
-            )
         rows.append({"age_ka": float(forcing.end_ka[k]), "phase": str(forcing.phase[k]),
                      "sea_level_m": sea_end, **scheduled,
                      "eroded_m3": sum(b.eroded for b in report.budgets.values()),

@@ -273,6 +273,7 @@ def run_compare(job: TerraceJob) -> Report:
     (before anything is written)."""
     _check_job(job)
     present = read_terrain(job.present)
+    present.check_valid(job.present)
     river = _river(job, present)
     history, listed = _history(job, present, river)
     terrace_results, incision_results = [], []

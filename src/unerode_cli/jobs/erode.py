@@ -11,13 +11,21 @@ from typing import Any
 import numpy as np
 
 from unerode_cli.errors import InputError
-from unerode_cli.io.paths import check_output
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.processes import thermal
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import boundaries_from_options
-from unerode_cli.run.outputs import TIME_TAG, Outputs, field_preview, save, snapshot_path
+from unerode_cli.run.divergence import DivergenceGuard, max_rate
+from unerode_cli.run.outputs import (
+    TIME_TAG,
+    Outputs,
+    check_png,
+    check_raster,
+    field_preview,
+    save,
+    snapshot_path,
+)
 from unerode_cli.run.parameter_maps import resolve
 from unerode_cli.run.registry import (
     REGISTRY,
@@ -120,15 +128,15 @@ def plan(job: ErosionJob) -> PreparedJob:
         stride = max(1, round(stride_f))
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, job.overwrite, job.preview)
     outputs.check(job.source)
-    extra = [job.change_map] if job.change_map else []
+    rasters = [job.change_map] if job.change_map else []
+    rasters += [snapshot_path(job.output, k) for k in range(1, steps // stride + 1)] if stride else []
+    for path in rasters:
+        check_raster(path, outputs.options, job.overwrite, (job.source,))
     if job.change_map and job.preview:
-        extra.append(change_preview_path(job.change_map))
-    extra += [snapshot_path(job.output, k) for k in range(1, steps // stride + 1)] if stride else []
-    for path in extra:
-        check_output(path, job.overwrite, (job.source,))
+        check_png(change_preview_path(job.change_map), job.overwrite, (job.source,))
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
-    if (~terrain.nodata_mask).sum() == 0:
-        raise InputError(f"{job.source} has no valid cell.")
+    terrain.check_valid(job.source)
+    outputs.check_source(terrain, job.source)
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
     given = given_values(job.params_file, job.parameter_values, names)
     options = {"scheme": job.scheme, "method": job.method,
@@ -162,8 +170,9 @@ def run_job(prepared: PreparedJob, on_step=None, on_note=None) -> str:
         if on_step is not None:
             on_step(f"t = {i * prepared.signed_dt:+.6g} y")
 
+    guard = DivergenceGuard(terrain.elevation, max_rate(prepared.uplift))
     h, report = run(terrain.elevation, prepared.processes, prepared.signed_dt, prepared.steps,
-                    job.allow_substeps, after_step, on_note)
+                    job.allow_substeps, after_step, on_note, guard)
     result = terrain.with_elevation(h)
     result.tags[TIME_TAG] = repr(report.elapsed_years)
     change = process_change(terrain, h, prepared, report)

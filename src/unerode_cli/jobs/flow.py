@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from unerode_cli.errors import InputError
 from unerode_cli.hydro import accumulate, route
 from unerode_cli.hydro.directions import esri_d8_codes
-from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.rasters import is_exr, read_terrain
 from unerode_cli.processes.parameters import ParamSpec
 from unerode_cli.run.boundaries import boundaries_from_options
 from unerode_cli.run.outputs import Outputs, field_preview, save
@@ -46,8 +47,13 @@ def output_dtype(what: str) -> str:
 def run_flow(job: FlowJob) -> None:
     """Check the outputs, read the DEM, route, accumulate and write field, sidecar and preview."""
     outputs = job.outputs
+    if job.what == "receivers" and is_exr(outputs.path):
+        raise InputError("EXR files hold float samples only, not the uint8 D8 codes of --what "
+                         f"receivers: write {outputs.path.stem}.tif instead.")
     outputs.check(job.source)
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
+    terrain.check_valid(job.source)
+    outputs.check_source(terrain, job.source)
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
     rain = resolve(PRECIPITATION, job.precipitation, terrain)
     routing = route(terrain.elevation, terrain.grid, bounds.outlets(terrain.elevation, terrain), job.method)

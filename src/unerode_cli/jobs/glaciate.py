@@ -24,16 +24,24 @@ from typing import Any
 
 import numpy as np
 
-from unerode_cli.errors import InputError
+from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.glacier import blatter, coupled, erosion, massbalance
 from unerode_cli.io.csv_tables import table_number, table_rows
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.grid_rasters import read_on_grid, write_bands
-from unerode_cli.io.paths import check_output
 from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
-from unerode_cli.run.outputs import TIME_TAG, Outputs, save, snapshot_path
+from unerode_cli.run.divergence import DivergenceGuard
+from unerode_cli.run.outputs import (
+    TIME_TAG,
+    Outputs,
+    check_png,
+    check_previewable,
+    check_raster,
+    save,
+    snapshot_path,
+)
 from unerode_cli.run.parameter_maps import resolve
 
 COMMAND = "glaciate"
@@ -105,10 +113,11 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
     _check_options(job)
     write = Outputs.from_cli(job.source, job.dtype, job.cog, job.co, job.overwrite, None).options
     snapshot_times = _snapshot_times(job)
-    _check_outputs(job, snapshot_times)
+    _check_outputs(job, snapshot_times, write)
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
-    if not terrain.grid.valid.any():
-        raise InputError(f"{job.source} has no valid cell.")
+    terrain.check_valid(job.source)
+    if job.preview is not None:
+        check_previewable(terrain, job.source)
     thickness = read_thickness(job.ice_thickness, terrain)
     ela = None if job.ela is None else read_ela(job.ela, terrain)
     given = {k: v for k, v in job.parameter_values.items() if v is not None}
@@ -171,18 +180,21 @@ def snapshot_base(job: GlacierJob) -> Path:
     return job.ice or job.output.with_name(f"{job.output.stem}_ice{job.output.suffix}")
 
 
-def _check_outputs(job: GlacierJob, snapshot_times: list[float]) -> None:
+def _check_outputs(job: GlacierJob, snapshot_times: list[float], write: WriteOptions) -> None:
     inputs = tuple(p for p in (job.source, job.ice_thickness) if p is not None)
-    paths = [p for p in (job.output, job.ice, job.velocity, job.sliding, job.preview) if p is not None]
+    rasters = [p for p in (job.output, job.ice, job.velocity, job.sliding) if p is not None]
     if snapshot_times:
-        paths += [snapshot_path(snapshot_base(job), k) for k in range(1, len(snapshot_times) + 1)]
-    for path in paths:
-        check_output(path, job.overwrite, inputs)
+        rasters += [snapshot_path(snapshot_base(job), k) for k in range(1, len(snapshot_times) + 1)]
+    paths = rasters + ([job.preview] if job.preview is not None else [])
     if len(set(map(Path.resolve, paths))) != len(paths):
         raise InputError("two outputs have the same path.")
     if job.velocity is not None and job.velocity.suffix.lower() not in (".tif", ".tiff"):
         raise InputError("the velocity output has two bands and must be a GeoTIFF (.tif), "
                          f"got {job.velocity.name}.")
+    for path in rasters:
+        check_raster(path, write, job.overwrite, inputs)
+    if job.preview is not None:
+        check_png(job.preview, job.overwrite, inputs)
 
 
 def read_thickness(path: Path | None, terrain: Terrain) -> np.ndarray:
@@ -265,7 +277,10 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
             _save_layer(prepared, state.thickness, path, "m", {"time_years": t}, t)
             snapshots.append(path)
     else:
+        guard = DivergenceGuard(terrain.elevation, hint="lower --dt")
+
         def after_step(new: coupled.GlacierState, report: coupled.StepReport) -> None:
+            guard.check(new.bed, new.time, f"at t = {new.time:g} y")
             if any(math.isclose(new.time, t, rel_tol=1e-12) for t in prepared.snapshot_times):
                 path = snapshot_path(snapshot_base(job), len(snapshots) + 1)
                 _save_layer(prepared, new.thickness, path, "m", {"time_years": new.time}, new.time)
@@ -280,7 +295,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                 f"--dt {exc.dt:g} y is above the stable explicit ice-transport step {exc.stable:.3g} y "
                 f"(reached at t = {exc.time:g} y); lower --dt or drop --no-substep.") from None
         except coupled.Diverged as exc:
-            raise RuntimeError(f"{exc}; lower --dt or use --transport explicit") from None
+            raise RunFailure(f"{exc}; lower --dt or use --transport explicit") from None
     final = result.state
     stats = _statistics(result, terrain, time.perf_counter() - start, snapshots, note)
     flow = _final_flow(prepared, final) if (job.velocity or job.sliding) else None

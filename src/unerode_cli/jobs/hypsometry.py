@@ -9,6 +9,7 @@ from unerode_cli.errors import InputError
 from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.paths import atomic_path, check_output
 from unerode_cli.io.rasters import read_terrain
+from unerode_cli.run.outputs import check_png
 from unerode_cli.viz.hypsometry_plot import save_hypsometry_plot
 
 CSV_COLUMNS = ["dem", "bin", "lower", "upper", "centre", "area_fraction", "area_above_fraction"]
@@ -29,11 +30,10 @@ def write(results: list[tuple[Path, Hypsometry]], csv_path: Path | None, plot: P
           overwrite: bool) -> None:
     """Write the long-form CSV (one row per DEM and bin) and the plot, atomically."""
     inputs = tuple(dem for dem, _ in results)
-    for path in (csv_path, plot):
-        if path is not None:
-            check_output(path, overwrite, inputs)
-    if plot is not None and plot.suffix.lower() != ".png":
-        raise InputError(f"the plot must be a .png file, got {plot.name}.")
+    if csv_path is not None:
+        check_output(csv_path, overwrite, inputs)
+    if plot is not None:
+        check_png(plot, overwrite, inputs)
     if csv_path is not None:
         rows = [dict(zip(CSV_COLUMNS, (dem.name, k, result.edges[k], result.edges[k + 1], result.centres[k],
                                         fraction, result.area_above[k]), strict=True))

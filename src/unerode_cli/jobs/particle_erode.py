@@ -49,7 +49,8 @@ from unerode_cli.particles import (
     get_preset,
 )
 from unerode_cli.particles import Terrain as ParticleTerrain
-from unerode_cli.run.outputs import Outputs, field_preview, save
+from unerode_cli.run.divergence import DivergenceGuard
+from unerode_cli.run.outputs import Outputs, check_png, check_raster, field_preview, save
 from unerode_cli.run.parameter_maps import resolve
 
 COMMAND = "particle-erode"
@@ -151,24 +152,29 @@ def plan(job: ParticleJob) -> PreparedParticleJob:
         layers_out = job.layers_out or default_layers_path(outputs.path)
         if layers_out.suffix.lower() not in (".tif", ".tiff"):
             raise InputError(f"the layers output must be a GeoTIFF (.tif), got {layers_out.name}.")
-    extra = [p for p in (job.change_map, layers_out, job.paths) if p is not None]
-    if job.change_map is not None and outputs.preview is not None:
-        extra.append(change_preview_path(job.change_map))
-    for path in extra:
-        check_output(path, outputs.overwrite, inputs)
+    rasters = [p for p in (job.change_map, layers_out) if p is not None]
+    pngs = [change_preview_path(job.change_map)] if job.change_map and outputs.preview else []
+    extra = [*rasters, *pngs, *([job.paths] if job.paths is not None else [])]
     if len(set(map(Path.resolve, [outputs.path, *extra]))) != len(extra) + 1:
         raise InputError("two outputs have the same path.")
+    for path in rasters:
+        check_raster(path, outputs.options, outputs.overwrite, inputs)
+    for path in pngs:
+        check_png(path, outputs.overwrite, inputs)
+    if job.paths is not None:
+        check_output(job.paths, outputs.overwrite, inputs)
     _check_counts(job)
+    _check_sources(job)
     dem = read_terrain(job.source, band=job.band, channel=job.channel)
+    dem.check_valid(job.source)
     grid = dem.grid
-    if not grid.valid.any():
-        raise InputError(f"{job.source} has no valid cell.")
+    outputs.check_source(dem, job.source)
     params = particle_params(preset, job.parameter_values, dem)
     notes: list[str] = []
     emission = build_emission(job, preset, params, dem, notes)
     velocity = build_velocity(job, preset, dem)
     if job.layers is not None:
-        terrain = layered_terrain(job, dem)
+        terrain = layered_terrain(job, dem, notes)
     else:
         with bad_input():
             terrain = HeightfieldTerrain(np.nan_to_num(dem.elevation), grid)
@@ -205,6 +211,13 @@ def _check_counts(job: ParticleJob) -> None:
         raise InputError(f"--sea-level must be a finite elevation (m), got {job.sea_level}.")
     if job.spread is not None and not (math.isfinite(job.spread) and job.spread >= 0):
         raise InputError(f"--spread must be a distance ≥ 0 m, got {job.spread}.")
+
+
+def _check_sources(job: ParticleJob) -> None:
+    """``--source``: X,Y points (repeated for a line) or one line file that exists."""
+    if len(job.sources) == 1 and "," not in job.sources[0] and not Path(job.sources[0]).is_file():
+        raise InputError(f"--source takes X,Y points in the DEM's CRS (repeat it for a line) or a "
+                         f"GeoJSON/WKT line file, and '{job.sources[0]}' is neither.")
 
 
 def particle_params(preset: Preset, given: dict[str, str | None], dem: Terrain) -> ParticleParams:
@@ -275,7 +288,12 @@ def build_emission(job: ParticleJob, preset: Preset, params: ParticleParams, dem
     if kind == "rain":
         mask = None
         if job.rain_mask is not None:
-            mask = np.nan_to_num(load_on_grid(job.rain_mask, dem, "rain mask"), nan=0.0)
+            weights = load_on_grid(job.rain_mask, dem, "rain mask")
+            holes = int((np.isnan(weights) & dem.grid.valid).sum())
+            if holes:
+                notes.append(f"note: the rain mask {job.rain_mask} has {holes} nodata cell(s) inside the "
+                             "DEM; no rain starts there (weight 0).")
+            mask = np.nan_to_num(weights, nan=0.0)
         return Emission.rain(count, mask, velocity=velocity)
     spread = params.radius if job.spread is None else job.spread
     return Emission.source(count, source_points(job, dem, notes), spread=spread, velocity=velocity)
@@ -302,15 +320,16 @@ def build_velocity(job: ParticleJob, preset: Preset, dem: Terrain) -> VelocityFi
         return VelocityField.raster(np.where(dem.grid.valid, bands, 0.0), medium=medium)
 
 
-def layered_terrain(job: ParticleJob, dem: Terrain) -> LayeredTerrain:
+def layered_terrain(job: ParticleJob, dem: Terrain, notes: list[str]) -> LayeredTerrain:
     """The layered terrain (003 §4.2) of ``--layers`` and ``--materials`` under the DEM's surface.
 
     Layer materials: ``--layer-materials`` (names, bottom first), else the band descriptions
     when each names a material of the table, else the table's rows in order (one per band).
-    Deposits become ``--deposit-material``, by default the top layer's material.
+    Deposits become ``--deposit-material``, by default the top layer's material. What the
+    materials table leaves to defaults is added to ``notes``.
     """
     assert job.layers is not None and job.materials is not None
-    materials = read_materials(job.materials)
+    materials = read_materials(job.materials, on_note=notes.append)
     names = [m.name for m in materials]
     bands = read_bands_on_grid(job.layers, dem, "layers")
     valid = dem.grid.valid
@@ -359,6 +378,8 @@ def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] |
                  paths=job.path_count if job.paths is not None else 0, path_stride=job.path_stride,
                  on_iteration=on_iteration)
     seconds = time.perf_counter() - start
+    DivergenceGuard(dem.elevation, hint="lower the particle count or the erosion rates").check(
+        result.elevation, 0.0, f"after {prepared.iterations} iterations")
     stats = statistics(result, dem, seconds)
     surface = dem.with_elevation(result.elevation)
     save(surface, prepared.outputs, COMMAND, prepared.provenance, stats, seed=job.seed)

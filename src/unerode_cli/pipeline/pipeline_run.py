@@ -43,7 +43,7 @@ from typing import Any
 from unerode_cli import __version__
 from unerode_cli.errors import InputError
 from unerode_cli.io.json_files import read_json, write_json
-from unerode_cli.io.paths import file_sha256
+from unerode_cli.io.paths import check_output, file_sha256
 from unerode_cli.pipeline.spec import ResolvedPipeline, ResolvedStep
 
 STATE_VERSION = 1
@@ -150,9 +150,11 @@ def check_outputs(pipeline: ResolvedPipeline, state: State) -> None:
                     "was not written by this pipeline; delete it or set options.overwrite: true.")
 
 
-def command_line(step: ResolvedStep, overwrite: bool, verbosity: int = 0) -> list[str]:
-    """The arguments after ``unerode-cli`` for this run of ``step``."""
+def command_line(step: ResolvedStep, verbosity: int = 0) -> list[str]:
+    """The arguments after ``unerode-cli`` for this run of ``step``: ``--overwrite`` when the
+    spec says so or its outputs exist, and ``-v``/``-q`` passed down from ``pipeline run``."""
     argv = list(step.argv)
+    overwrite = step.overwrite_given or any(p.exists() for p in step.outputs)
     if overwrite and step.has_overwrite:
         argv.append("--overwrite")
     if step.has_verbosity and verbosity:
@@ -160,8 +162,14 @@ def command_line(step: ResolvedStep, overwrite: bool, verbosity: int = 0) -> lis
     return argv
 
 
-def dry_run(pipeline: ResolvedPipeline, resume: bool) -> list[str]:
-    """One line per step, ``run`` or ``skip`` (what a real run would do), then the command.
+def shown(argv: list[str]) -> str:
+    """A command line as the run log and a dry run show it."""
+    return shlex.join(["unerode-cli", *argv])
+
+
+def dry_run(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0) -> list[str]:
+    """One line per step, ``run`` or ``skip`` (what a real run would do), then the command
+    line that a run with the same ``verbosity`` logs.
 
     A step that reads the output of a step that would run is shown as ``run``: its inputs
     will change (outputs carry the time they were written).
@@ -174,9 +182,7 @@ def dry_run(pipeline: ResolvedPipeline, resume: bool) -> list[str]:
                 and state.up_to_date(step, step_key(step, pipeline.workdir), pipeline.workdir))
         if not skip:
             will_run.add(step.name)
-        overwrite = step.overwrite_given or any(p.exists() for p in step.outputs)
-        shown = shlex.join(["unerode-cli", *command_line(step, overwrite)])
-        lines.append(f"{'skip' if skip else 'run '} {step.name}: {shown}")
+        lines.append(f"{'skip' if skip else 'run '} {step.name}: {shown(command_line(step, verbosity))}")
     return lines
 
 
@@ -185,6 +191,7 @@ def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
     """Run (or skip) every step in order; raises :class:`StepFailed` at the first failure."""
     state = State.load(pipeline.state_path)
     check_outputs(pipeline, state)
+    check_output(pipeline.state_path, overwrite=True)     # the pipeline's own, rewritten after each step
     report, total = Report(), len(pipeline.steps)
     note(f"pipeline {pipeline.spec_path.name}: {total} step(s) in {pipeline.workdir}")
     for i, step in enumerate(pipeline.steps, start=1):
@@ -194,9 +201,8 @@ def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
             note(f"{tag}: skipped (unchanged since its last run)")
             report.skipped.append(step.name)
             continue
-        overwrite = step.overwrite_given or any(p.exists() for p in step.outputs)
-        argv = command_line(step, overwrite, verbosity)
-        note(f"{tag}: unerode-cli {shlex.join(argv)}")
+        argv = command_line(step, verbosity)
+        note(f"{tag}: {shown(argv)}")
         state.steps.pop(step.name, None)
         state.owned.update(_rel(p, pipeline.workdir) for p in step.outputs)
         state.save()

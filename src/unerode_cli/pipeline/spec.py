@@ -52,7 +52,7 @@ written by an earlier step, two steps writing the same file, and duplicate step 
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -77,6 +77,8 @@ class ParamSchema:
     ``kind``: ``value`` (one value), ``multiple`` (repeatable), ``flag`` (true/false),
     ``count`` (repeated flag, e.g. ``-v``). ``type``: ``path``, ``int``, ``float``, ``str`` or
     ``choice``. ``role``: ``input`` or ``output`` for path parameters, ``other`` else.
+    ``parse``: the subcommand's own check of one value's text (finite, in range, well formed),
+    raising ValueError with the end of a sentence; None when it has none.
     """
 
     name: str
@@ -89,6 +91,7 @@ class ParamSchema:
     maximum: float | None = None
     required: bool = False
     off_flags: tuple[str, ...] = ()
+    parse: Callable[[str], object] | None = None
 
 
 @dataclass(frozen=True)
@@ -469,6 +472,11 @@ def _check_value(value: Scalar, param: ParamSchema, context: str) -> str:
         raise InputError(f"{context}: expected one of {', '.join(param.choices)}, got '{text}'.")
     elif param.type == "path" and not text:
         raise InputError(f"{context}: expected a path, got an empty value.")
+    if param.parse is not None:
+        try:
+            param.parse(text)
+        except ValueError as exc:
+            raise InputError(f"{context}: {str(exc).rstrip('.')}.") from None
     return text
 
 

@@ -43,13 +43,14 @@ class ParamSpec:
             raise ValueError(f"parameter {self.name} must be finite")
         if arr.ndim > 0 and not self.raster:
             raise ValueError(f"parameter {self.name} must be a scalar, not a raster")
+        unit = "" if self.unit in ("", "1") else f" {self.unit}"  # "1": dimensionless
         if self.minimum is not None and np.any(arr < self.minimum):
             raise ValueError(
-                f"parameter {self.name} must be ≥ {self.minimum} {self.unit}, got {np.min(arr):g}"
+                f"parameter {self.name} must be ≥ {self.minimum:g}{unit}, got {np.min(arr):g}"
             )
         if self.maximum is not None and np.any(arr > self.maximum):
             raise ValueError(
-                f"parameter {self.name} must be ≤ {self.maximum} {self.unit}, got {np.max(arr):g}"
+                f"parameter {self.name} must be ≤ {self.maximum:g}{unit}, got {np.max(arr):g}"
             )
 
 

@@ -10,8 +10,8 @@ from typing import Any
 from unerode_cli.errors import InputError
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.paths import atomic_path, check_output
-from unerode_cli.io.provenance import append_history, history_entry, write_sidecar
-from unerode_cli.io.rasters import write_terrain
+from unerode_cli.io.provenance import append_history, history_entry, sidecar_path, write_sidecar
+from unerode_cli.io.rasters import check_writable, write_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.viz.preview import save_field_preview, save_preview
 
@@ -41,10 +41,31 @@ class Outputs:
         return cls(path, WriteOptions(dtype, cog, parse_creation_options(co)), overwrite, preview)
 
     def check(self, *inputs: Path) -> None:
-        """Refuse bad outputs before any work is done."""
-        check_output(self.path, self.overwrite, inputs)
+        """Refuse bad outputs before any work is done: the raster (format and options
+        included), its sidecar and the preview."""
+        check_raster(self.path, self.options, self.overwrite, inputs)
         if self.preview is not None:
-            check_output(self.preview, self.overwrite, inputs)
+            check_png(self.preview, self.overwrite, inputs)
+
+    def check_source(self, terrain: Terrain, source: Path | str) -> None:
+        """Refuse, before any work, a preview that ``terrain`` (read from ``source``) cannot give."""
+        if self.preview is not None:
+            check_previewable(terrain, source)
+
+
+def check_raster(path: Path, options: WriteOptions, overwrite: bool, inputs: tuple[Path, ...] = ()) -> None:
+    """Clear a raster output and its JSON sidecar before any work: a format and options that
+    can be written, and neither file existing (without ``overwrite``) nor being an input."""
+    check_writable(path, options)
+    check_output(path, overwrite, inputs)
+    check_output(sidecar_path(path), overwrite, inputs)
+
+
+def check_png(path: Path, overwrite: bool, inputs: tuple[Path, ...] = ()) -> None:
+    """Clear a PNG output (preview, plot) before any work."""
+    if path.suffix.lower() != ".png":
+        raise InputError(f"previews and plots are PNG files: {path.name} does not end in .png.")
+    check_output(path, overwrite, inputs)
 
 
 def check_previewable(terrain: Terrain, source: Path | str) -> None:
@@ -53,8 +74,7 @@ def check_previewable(terrain: Terrain, source: Path | str) -> None:
     ny, nx = terrain.shape
     if ny < 2 or nx < 2:
         raise InputError(f"{source} has {ny} × {nx} cells; a preview needs at least 2 × 2.")
-    if terrain.nodata_mask.all():
-        raise InputError(f"{source} has no valid cell (every cell is nodata or NaN).")
+    terrain.check_valid(source)
 
 
 def save(

@@ -15,6 +15,10 @@ from typing import Protocol
 import numpy as np
 
 from unerode_cli.errors import InputError
+from unerode_cli.run.divergence import DivergenceGuard
+
+#: More sub-steps than this in one step is refused: --dt is far above the stable step.
+MAX_SUBSTEPS = 100_000
 
 
 @dataclass
@@ -86,13 +90,16 @@ def run(
     allow_substeps: bool = True,
     on_step: Callable[[int, np.ndarray], None] | None = None,
     on_note: Callable[[str], None] | None = None,
+    guard: DivergenceGuard | None = None,
 ) -> tuple[np.ndarray, RunReport]:
     """Advance ``elevation`` (m) by ``steps`` steps of ``dt`` years through ``processes``.
 
     Within a step the processes are applied one after the other (operator splitting); each is
     sub-stepped when its stable time step is shorter than ``dt`` (a note is given once per
-    process), or, with ``allow_substeps`` False, the run is refused (InputError).
-    ``on_step(i, h)`` is called after step i (1-based). The input array is not modified.
+    process), or, with ``allow_substeps`` False or more than ``MAX_SUBSTEPS`` sub-steps, the
+    run is refused (InputError). ``guard`` checks the elevation after each step and stops a
+    diverging run (RunFailure) before ``on_step(i, h)`` is called after step i (1-based). The
+    input array is not modified.
     """
     if dt == 0.0 or not math.isfinite(dt):
         raise InputError("the time step must be a non-zero number of years.")
@@ -103,6 +110,10 @@ def run(
     for i in range(1, steps + 1):
         for process in processes:
             n_sub = substeps_needed(dt, process.stable_dt(h, dt))
+            if n_sub > MAX_SUBSTEPS:
+                raise InputError(
+                    f"a time step of {abs(dt):g} years would need {float(n_sub):.3g} {process.name} "
+                    f"sub-steps (stable: ≤ {abs(dt) / n_sub:.4g} years); lower --dt.")
             if n_sub > 1 and not allow_substeps:
                 raise InputError(
                     f"the {process.name} time step of {abs(dt):g} years is unstable here "
@@ -120,6 +131,8 @@ def run(
             report.substeps[process.name] += n_sub
         report.steps = i
         report.elapsed_years = i * dt
+        if guard is not None:
+            guard.check(h, report.elapsed_years, f"in step {i} (t = {report.elapsed_years:g} y)")
         if on_step is not None:
             on_step(i, h)
     return h, report
