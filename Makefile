@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 DEMO   := demo_out
-SAMPLE := sample_dems/valley_utm32n_30m.tif
+SAMPLE := sample_dems/eroded_utm32n_30m.tif
 # real chronologies (LR04 δ18O stack, Spratt & Lisiecki 2016 sea level), beside the checkout
 DATA   ?= ../shared/data
 
@@ -31,13 +31,13 @@ test-all: $(STAMP)
 demo: $(STAMP)
 	mkdir -p $(DEMO)
 	$(BIN)/unerode-cli info $(SAMPLE)
-	$(BIN)/unerode-cli flow $(SAMPLE) $(DEMO)/discharge.tif --sea-level 0 \
+	$(BIN)/unerode-cli flow $(SAMPLE) $(DEMO)/discharge.tif --sea-level 0 --outlets S \
 		--preview $(DEMO)/discharge.png --overwrite
 	$(BIN)/unerode-cli unerode $(SAMPLE) $(DEMO)/valley_past.tif --process thermal,fluvial \
-		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 --k-th 0.002 \
+		--dt 500 --duration 20000 --sea-level 0 --outlets S --K 2e-5 --K-d 1 --k-th 0.002 \
 		--change-map $(DEMO)/valley_past_change.tif --preview $(DEMO)/valley_past.png --overwrite
 	$(BIN)/unerode-cli erode $(SAMPLE) $(DEMO)/valley_future.tif --process fluvial,thermal \
-		--dt 500 --duration 20000 --sea-level 0 --K 2e-5 --K-d 1 --k-th 0.002 \
+		--dt 500 --duration 20000 --sea-level 0 --outlets S --K 2e-5 --K-d 1 --k-th 0.002 \
 		--change-map $(DEMO)/valley_future_change.tif --preview $(DEMO)/valley_future.png --overwrite
 	$(BIN)/unerode-cli convert $(DEMO)/valley_past.tif $(DEMO)/valley_past.exr --overwrite
 	@if [ -f $(DATA)/lr04/LR04stack.txt ]; then \

@@ -64,3 +64,16 @@ def test_the_run_log_shows_the_command_lines_of_the_dry_run(tmp_path: Path, verb
     logged = [line.split(": ", 1)[1] for line in result.stderr.splitlines()
               if line.startswith("[") and ": unerode-cli " in line]
     assert logged == shown == [" ".join(["unerode-cli synth terrain.tif --size 16 --seed 3", *flags])]
+
+
+def test_a_missing_workdir_is_created_by_the_run_not_by_a_dry_run(tmp_path: Path) -> None:
+    spec = tmp_path / "spec.yaml"
+    spec.write_text("version: 1\nworkdir: runs/new\nsteps:\n"
+                    "  - {name: terrain, run: synth, args: [terrain.tif], options: {size: 16}}\n")
+    dry = run_cli("pipeline", "run", spec, "--dry-run")
+    assert dry.returncode == 0, dry.stderr
+    assert not (tmp_path / "runs").exists()
+    result = run_cli("pipeline", "run", spec)
+    assert result.returncode == 0, result.stderr
+    assert "created the workdir" in result.stderr
+    assert (tmp_path / "runs" / "new" / "terrain.tif").is_file()

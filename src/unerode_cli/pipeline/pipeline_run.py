@@ -191,6 +191,9 @@ def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
     """Run (or skip) every step in order; raises :class:`StepFailed` at the first failure."""
     state = State.load(pipeline.state_path)
     check_outputs(pipeline, state)
+    if not pipeline.workdir.is_dir():
+        pipeline.workdir.mkdir(parents=True)
+        note(f"created the workdir {pipeline.workdir}")
     check_output(pipeline.state_path, overwrite=True)     # the pipeline's own, rewritten after each step
     report, total = Report(), len(pipeline.steps)
     note(f"pipeline {pipeline.spec_path.name}: {total} step(s) in {pipeline.workdir}")

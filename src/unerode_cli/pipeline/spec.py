@@ -6,7 +6,8 @@ A spec chains subcommands of ``unerode-cli``; each step is run as its own proces
     vars:                      # name -> string, number or boolean; `--var NAME=VALUE` overrides
       size: 32                 # (null: the value must be given with --var)
       dt: 1000
-    workdir: runs/demo         # optional; default: the spec's folder (relative to it)
+    workdir: runs/demo         # optional; default: the spec's folder (relative to it);
+                               # created by `pipeline run` when missing
     steps:
       - name: terrain          # unique; letters, digits, _ . -
         run: synth             # a subcommand of unerode-cli
@@ -229,8 +230,8 @@ def resolve(spec: PipelineSpec, spec_path: Path, schemas: Mapping[str, CommandSc
     if spec.workdir is not None:
         text = _substitute(spec.workdir, variables, {}, "workdir")
         workdir = (base / str(text)).resolve()
-        if not workdir.is_dir():
-            raise InputError(f"spec field 'workdir': folder {workdir} does not exist.")
+        if workdir.exists() and not workdir.is_dir():
+            raise InputError(f"spec field 'workdir': {workdir} is a file, not a folder.")
     resolver = _Resolver(workdir, variables, schemas, {s.name for s in spec.steps})
     steps = [resolver.step(step) for step in spec.steps]
     return ResolvedPipeline(spec_path.resolve(), workdir, steps)
