@@ -12,6 +12,7 @@ from tests.cli.test_bad_input import assert_refused
 from tests.conftest import SHARED_DATA, run_cli, write_geotiff
 
 from unerode_cli.io.rasters import read_terrain
+from unerode_cli.jobs.climate_run import ClimateJob, plan, step_values
 
 LR04 = SHARED_DATA / "lr04" / "LR04stack.txt"
 SPRATT = SHARED_DATA / "sealevel" / "spratt2016.txt"
@@ -72,7 +73,7 @@ def test_boundary_follows_sea_level_and_incision_starts_at_the_outlet(tmp_path: 
     same_climate.write_text("".join(f"{phase}: {{precipitation: 1.0}}\n"
                                     for phase in ("glacial", "end-of-glacial", "interglacial")))
     common = ("--chronology-kind", "sea-level", "--from", 20, "--to", 12, "--dt", 500,
-              "--outlets", "S", "--process", "fluvial", "--K", "2e-4", "--K-d", "0",
+              "--outlets", "S", "--coast", "S", "--process", "fluvial", "--K", "2e-4", "--K-d", "0",
               "--no-sea-outlets", "--params", same_climate)
     for out, fall in ((fallen, 120.0), (steady, 0.0)):
         table = sea_fall_table(tmp_path / f"sea{fall:g}.txt", fall)
@@ -116,3 +117,23 @@ def test_bad_climate_runs_are_refused(tmp_path: Path, ramp: Path) -> None:
                            "--chronology-kind", "sea-level", "--to", 900), out, "798")
     assert_refused(run_cli("climate-run", ramp, out, "--chronology", tmp_path / "none.txt"),
                    out, "none.txt")
+
+
+def test_parameter_rasters_survive_a_climate_run_scaled_per_phase(tmp_path: Path, ramp: Path) -> None:
+    """A K_th map is 4 × itself in glacial steps (0.008 / 0.002) and as given in interglacials;
+    K and U maps, which the default schedule does not set, stay as given."""
+    cols = np.indices((30, 16))[1]
+    maps = {"k_th": 0.002 * np.where(cols < 8, 1.0, 2.0), "k": np.where(cols < 8, 1e-5, 3e-5),
+            "uplift": np.where(cols < 8, 1e-4, -5e-5)}
+    paths = {name: str(write_geotiff(tmp_path / f"{name}.tif", value)) for name, value in maps.items()}
+    prepared = plan(ClimateJob(source=ramp, output=tmp_path / "p.tif", chronology=LR04,
+                               sea_level_file=SPRATT, from_ka=0, to_ka=24, outlets="S",
+                               process="fluvial,thermal", parameter_values=paths))
+    phases = list(prepared.forcing.phase)
+    glacial, interglacial = phases.index("glacial"), phases.index("interglacial")
+    values, row = step_values(prepared, glacial)
+    np.testing.assert_allclose(values["k_th"], 4.0 * maps["k_th"], rtol=1e-12)
+    np.testing.assert_array_equal(values["k"], maps["k"])
+    np.testing.assert_array_equal(values["uplift"], maps["uplift"])
+    assert row["k_th"] == 0.008 and row["uplift_m_per_y"] == pytest.approx(2.5e-5)
+    np.testing.assert_allclose(step_values(prepared, interglacial)[0]["k_th"], maps["k_th"], rtol=1e-12)

@@ -202,3 +202,14 @@ def test_reader_falls_back_to_latin1(tmp_path):
     path.write_bytes("# d\xe9j\xe0 vu \u00b0C\n0\t1\n1\t2\n".encode("latin-1"))
     assert len(read_series(path, "generic")) == 2
     assert read_series(LR04, "d18o").at(1.0) == pytest.approx(3.23)
+
+
+def test_mean_over_a_span_is_the_exact_integral_of_the_linear_curve():
+    series = Series([0.0, 1.0, 3.0], [0.0, 2.0, 0.0])
+    assert series.mean(0.0, 3.0) == pytest.approx(1.0, abs=1e-15)  # triangle: area 3 over 3 ka
+    assert series.mean(2.0, 0.5) == pytest.approx((0.5 * (1.0 + 2.0) / 2 + (2.0 + 1.0) / 2) / 1.5, abs=1e-15)
+    assert series.mean(1.5, 2.5) == pytest.approx(series.at(2.0), abs=1e-15)  # no sample inside
+    with pytest.raises(ValueError, match="two different ages"):
+        series.mean(1.0, 1.0)
+    with pytest.raises(ValueError, match="outside the chronology"):
+        series.mean(2.0, 4.0)

@@ -1,5 +1,6 @@
 """Parameter schedule (000 §5.2): K_th 0.002 → 0.008 and p 0.6 → 0.3 m/y in glacials, downstream
-K_d 0.1 → 3 over a 150 m sea-level fall; overrides from a mapping; the downstream region."""
+K_d 3 → 0.1 over a 150 m sea-level fall; overrides from a mapping; rasters scaled per phase; the
+downstream region."""
 
 from __future__ import annotations
 
@@ -15,9 +16,9 @@ from unerode_cli.climate.schedule import DOWNSTREAM_K_D, DownstreamKd, Schedule,
 def test_defaults_of_000_section_5_2():
     schedule = Schedule()
     assert schedule.values(INTERGLACIAL, 0.0) == {"k_th": 0.002, "precipitation": 0.6,
-                                                  DOWNSTREAM_K_D: pytest.approx(0.1)}
+                                                  DOWNSTREAM_K_D: pytest.approx(3.0)}
     glacial = schedule.values(GLACIAL, -150.0)
-    assert glacial == {"k_th": 0.008, "precipitation": 0.3, DOWNSTREAM_K_D: pytest.approx(3.0)}
+    assert glacial == {"k_th": 0.008, "precipitation": 0.3, DOWNSTREAM_K_D: pytest.approx(0.1)}
     end = schedule.values(END_OF_GLACIAL, -75.0)
     assert end["k_th"] == pytest.approx(0.005) and end["precipitation"] == pytest.approx(0.45)
     assert "k_d" not in glacial  # k_d outside the downstream region keeps its ordinary value
@@ -25,20 +26,20 @@ def test_defaults_of_000_section_5_2():
 
 def test_downstream_k_d_follows_sea_level_linearly_and_clamped():
     schedule = Schedule()
-    assert schedule.downstream_k_d(0.0) == pytest.approx(0.1)
+    assert schedule.downstream_k_d(0.0) == pytest.approx(3.0)
     assert schedule.downstream_k_d(-75.0) == pytest.approx(1.55)  # halfway
-    assert schedule.downstream_k_d(-150.0) == pytest.approx(3.0)
-    assert schedule.downstream_k_d(-120.0) == pytest.approx(0.1 + 2.9 * 0.8)
-    assert schedule.downstream_k_d(+8.0) == pytest.approx(0.1)  # above present: clamped
-    assert schedule.downstream_k_d(-400.0) == pytest.approx(3.0)
-    np.testing.assert_allclose(DownstreamKd().at(np.array([0.0, -30.0, -300.0])), [0.1, 0.68, 3.0])
+    assert schedule.downstream_k_d(-150.0) == pytest.approx(0.1)
+    assert schedule.downstream_k_d(-120.0) == pytest.approx(3.0 - 2.9 * 0.8)
+    assert schedule.downstream_k_d(+8.0) == pytest.approx(3.0)  # above present: clamped
+    assert schedule.downstream_k_d(-400.0) == pytest.approx(0.1)
+    np.testing.assert_allclose(DownstreamKd().at(np.array([0.0, -30.0, -300.0])), [3.0, 2.42, 0.1])
     with pytest.raises(ValueError, match="finite number"):
         schedule.downstream_k_d(float("nan"))
 
 
 def test_schedule_along_the_last_glacial_cycle(spratt):
     """Along Spratt 2016 the scheduled K_th is 0.008 at the LGM and 0.002 in the Holocene, and
-    the downstream K_d stays within 0.1–3 and peaks at the lowest sea level."""
+    the downstream K_d stays within 0.1–3 and is lowest at the lowest sea level."""
     ages = np.arange(0.0, 131.0)
     sea = spratt.at(ages)
     phases = classify(ages, sea)
@@ -47,8 +48,8 @@ def test_schedule_along_the_last_glacial_cycle(spratt):
     k_d = np.array([schedule.downstream_k_d(s) for s in sea])
     assert k_th[20] == 0.008 and k_th[5] == 0.002 and k_th[15] == 0.005
     assert k_d.min() >= 0.1 and k_d.max() <= 3.0
-    assert k_d[20] == pytest.approx(0.1 + 2.9 * 125.36 / 150.0, abs=1e-6)
-    assert int(np.argmax(k_d)) == int(np.argmin(sea))
+    assert k_d[20] == pytest.approx(3.0 - 2.9 * 125.36 / 150.0, abs=1e-6)
+    assert int(np.argmin(k_d)) == int(np.argmin(sea))
 
 
 def test_overrides_and_new_parameters():
@@ -63,7 +64,7 @@ def test_overrides_and_new_parameters():
     assert schedule.values(GLACIAL, 0.0)["precipitation"] == 0.3  # default kept
     assert "k" not in schedule.values(INTERGLACIAL, 0.0)  # not set there: ordinary value
     assert schedule.values(END_OF_GLACIAL, 0.0)["precipitation"] == 0.4
-    assert schedule.downstream_k_d(-50.0) == pytest.approx(0.1 + 4.9 * 0.5)
+    assert schedule.downstream_k_d(-50.0) == pytest.approx(3.0 + 2.0 * 0.5)
     assert schedule.downstream_k_d(-200.0) == pytest.approx(5.0)
     # round trip for provenance
     assert Schedule.from_mapping(schedule.to_mapping()) == schedule
@@ -123,3 +124,40 @@ def test_downstream_mask_below_a_level_or_given():
         downstream_mask(h, mask=np.ones((1, 3)))
     with pytest.raises(ValueError, match="finite number"):
         downstream_mask(h, below_m=float("nan"))
+
+
+def test_a_raster_is_scaled_by_the_phase_relative_to_the_interglacial_and_a_number_replaced():
+    schedule = Schedule()
+    k_th = 0.002 * np.array([[1.0, 2.0]])  # a present-day map: 1 and 2 × the interglacial value
+    rain = np.array([[0.6, 1.2]])
+    ordinary = {"k_th": k_th, "precipitation": rain, "k": 2e-5, "k_d": 1.0}
+    glacial = schedule.apply(GLACIAL, ordinary)
+    np.testing.assert_allclose(glacial["k_th"], 4.0 * k_th, rtol=1e-12)  # 0.008 / 0.002
+    np.testing.assert_allclose(glacial["precipitation"], 0.5 * rain, rtol=1e-12)  # 0.3 / 0.6
+    assert glacial["k"] == 2e-5 and glacial["k_d"] == 1.0  # not scheduled: kept
+    np.testing.assert_allclose(schedule.apply(END_OF_GLACIAL, ordinary)["k_th"], 2.5 * k_th, rtol=1e-12)
+    np.testing.assert_array_equal(schedule.apply(INTERGLACIAL, ordinary)["k_th"], k_th)
+    assert schedule.apply(GLACIAL, {"k_th": 0.004})["k_th"] == 0.008  # a number is replaced
+    assert schedule.factor("k_th", GLACIAL) == pytest.approx(4.0)
+    assert schedule.factor("k", GLACIAL) == 1.0
+
+
+def test_k_and_u_maps_follow_a_schedule_that_sets_them():
+    schedule = Schedule.from_mapping({"glacial": {"K": 4e-5, "U": -1e-4},
+                                      "interglacial": {"K": 2e-5, "U": 2e-4}})
+    k_map, u_map = np.array([[1e-5, 3e-5]]), np.array([[2e-4, 1e-4]])
+    glacial = schedule.apply(GLACIAL, {"k": k_map, "uplift": u_map})
+    np.testing.assert_allclose(glacial["k"], 2.0 * k_map, rtol=1e-12)
+    np.testing.assert_allclose(glacial["uplift"], -0.5 * u_map, rtol=1e-12)
+    np.testing.assert_array_equal(schedule.apply(END_OF_GLACIAL, {"k": k_map})["k"], k_map)
+
+
+@pytest.mark.parametrize("interglacial", [None, 0.0])
+def test_a_raster_without_an_interglacial_value_to_scale_from_is_refused(interglacial):
+    mapping = {"glacial": {"K": 4e-5}}
+    if interglacial is not None:
+        mapping["interglacial"] = {"K": interglacial}
+    schedule = Schedule.from_mapping(mapping)
+    assert schedule.apply(GLACIAL, {"k": 1e-5})["k"] == 4e-5  # a number: replaced, fine
+    with pytest.raises(ValueError, match=r"sets k for glacial but no non-zero value for interglacial"):
+        schedule.apply(GLACIAL, {"k": np.array([[1e-5, 2e-5]])})

@@ -15,11 +15,13 @@ from unerode_cli.cli.options import (
     METRES,
     OUTPUT_PANEL,
     POSITIVE_YEARS,
+    Coast,
     Cog,
     CreationOptions,
     Dirichlet,
     Dtype,
     DtypeOpt,
+    EdgeBase,
     InputDem,
     Method,
     Outlets,
@@ -64,9 +66,12 @@ def climate_run(
     params: Annotated[Path | None, typer.Option("--params", help="YAML schedule: per-phase parameter values (glacial, end-of-glacial, interglacial) and the downstream K_d range.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
     downstream_below: Annotated[float | None, typer.Option(parser=METRES, help="Downstream region (K_d follows sea level, 000 §5.2): cells below this elevation (m) of the input.", rich_help_panel=BOUNDARY_PANEL)] = None,
     downstream_mask: Annotated[Path | None, typer.Option(help="Downstream region as a raster on the DEM's grid (non-zero cells).", rich_help_panel=BOUNDARY_PANEL)] = None,
+    uplift_map: Annotated[Path | None, typer.Option(help="Uplift raster (m/y) on the DEM's grid, multiplied through time by the factor of --uplift TABLE.csv (columns age_ka,factor); --uplift also takes a table age_ka,U_m_per_y, linear in age, covering the run.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
     outlets: Outlets = "all",
     dirichlet: Dirichlet = None,
-    sea_outlets: Annotated[bool, typer.Option("--sea-outlets/--no-sea-outlets", help="Cells at or below the current sea level are outlets.", rich_help_panel=BOUNDARY_PANEL)] = True,
+    sea_outlets: Annotated[bool, typer.Option("--sea-outlets/--no-sea-outlets", help="Cells at or below the current sea level are outlets, and boundary nodes at or below the sea level of --from follow sea level.", rich_help_panel=BOUNDARY_PANEL)] = True,
+    coast: Coast = "none",
+    edge_base: EdgeBase = "fixed",
     checkpoint_every: Annotated[int, typer.Option(min=1, help="Write a checkpoint every this many steps.", rich_help_panel=RUN_PANEL)] = 10,
     resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted run from its checkpoint (same inputs and options).", rich_help_panel=RUN_PANEL)] = False,
     max_steps: Annotated[int | None, typer.Option(min=1, help="Stop after this many steps of this invocation (checkpointed; continue with --resume).", rich_help_panel=RUN_PANEL)] = None,
@@ -84,7 +89,7 @@ def climate_run(
     parameter_values: dict[str, str | None] | None = None,
 ) -> None:
     """Run the processes along a chronology: per-step sea level, climate phase and parameters
-    (000 §5), with boundary nodes that follow sea level. Writes the DEM at --to, snapshots
+    (000 §5), with a coast that follows sea level. Writes the DEM at --to, snapshots
     (tagged with age, sea level and phase), OUTPUT_timeline.csv and OUTPUT_chronology.png."""
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import SUMMARY, say
@@ -96,8 +101,9 @@ def climate_run(
             chronology_kind=chronology_kind.value, sea_level_file=sea_level,
             d18o_mapping=d18o_to_sea, direction=direction.value if direction else None,
             dt=dt, process=process, snapshots_ka=snapshots or (), schedule_file=params,
-            downstream_below=downstream_below, downstream_mask=downstream_mask,
-            outlets=outlets, dirichlet=dirichlet, sea_outlets=sea_outlets,
+            downstream_below=downstream_below, downstream_mask=downstream_mask, uplift_map=uplift_map,
+            outlets=outlets, dirichlet=dirichlet, sea_outlets=sea_outlets, coast=coast,
+            edge_base=edge_base,
             checkpoint_every=checkpoint_every, resume=resume, max_steps=max_steps,
             allow_substeps=not no_substep, scheme=scheme.value, method=method.value,
             constraints=thermal_constraints, dtype=dtype.value, cog=cog, co=co,

@@ -50,3 +50,5 @@ Seed = Annotated[int, typer.Option("--seed", help="Random seed (recorded in the 
 Outlets = Annotated[str, typer.Option("--outlets", help="Domain edges that drain out: all, none, or a comma list of N,E,S,W.", rich_help_panel=BOUNDARY_PANEL)]
 SeaLevel = Annotated[float | None, typer.Option("--sea-level", parser=METRES, help="Cells at or below this elevation (m) are outlets.", rich_help_panel=BOUNDARY_PANEL)]
 Dirichlet = Annotated[Path | None, typer.Option("--dirichlet", help="Raster on the DEM's grid; non-zero cells are fixed-elevation outlet nodes.", rich_help_panel=BOUNDARY_PANEL)]
+Coast = Annotated[str, typer.Option("--coast", help="Sea edges, whose cells follow sea level: none, all, or a comma list of N,E,S,W and nodata (nodata borders).", rich_help_panel=BOUNDARY_PANEL)]
+EdgeBase = Annotated[str, typer.Option("--edge-base", help="Base level of the other boundary nodes: fixed (keep their elevation), uplift (rise with U), or FILE, a CSV table of age_ka, elevation_m (move as it does since --from).", rich_help_panel=BOUNDARY_PANEL)]

@@ -125,6 +125,24 @@ class Series:
         out = np.interp(ages, self.age_ka, self.value)
         return float(out) if np.ndim(out) == 0 else out
 
+    def mean(self, start_ka: float, end_ka: float) -> float:
+        """Mean value between two different ages (ka, either order): the integral of the
+        piecewise-linear curve over the span divided by the span, exact (trapezoids between the
+        samples that fall inside). Without a sample strictly inside, it is the value at the
+        middle age.
+
+        Raises:
+            ValueError: the ages are equal, or one is outside ``[start_ka, end_ka]`` of the
+                table (one sentence).
+        """
+        lo, hi = sorted((float(start_ka), float(end_ka)))
+        if not hi > lo:
+            raise ValueError(f"the mean of the chronology {self.name!r} needs two different ages")
+        inside = self.age_ka[(self.age_ka > lo) & (self.age_ka < hi)]
+        ages = np.concatenate(([lo], inside, [hi]))
+        values = np.asarray(self.at(ages))
+        return float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(ages)) / (hi - lo))
+
 
 def parse_table(text: str, kind: str, source: str, column: str | None = None) -> Series:
     """Parse a chronology table (age in ka in the first column, then values) from ``text``.

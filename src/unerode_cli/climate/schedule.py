@@ -18,7 +18,11 @@ clamped to the range, from ``present`` at s ≥ 0 to ``lowest`` at s ≤ −``ra
 
     k_d(s) = present + (lowest − present) · clip(−s / range_m, 0, 1)
 
-defaults 0.1 → 3 over 150 m (000 §5.2). It applies only inside a downstream region chosen by
+defaults 3 at present sea level → 0.1 at 150 m below (000 §5.2: "while sea level fluctuates by
+150 meters, K_d fluctuates from 0.1 to 3"). The direction is 000 Table 1's: at high sea level
+(interglacials) rivers lose stream strength and deposit ("deposition of sediments"), so K_d is
+high; at the glacial lowstand they incise and the "high erosion rate prevents deposition"
+(§5.1.1), so K_d is low. It applies only inside a downstream region chosen by
 the caller (:func:`downstream_mask`); elsewhere ``k_d`` keeps its ordinary value (the run's
 ``k_d`` or the phase's, when a phase sets one). Note: 000 gives K_d without a unit; the project's
 ``k_d`` is in m/y (Yuan et al. 2019's G times the mean precipitation, DESIGN §6), and these
@@ -29,12 +33,24 @@ Schedule mapping (``Schedule.from_mapping``; the YAML file is read by the pipeli
     glacial:            {k_th: 0.01, precipitation: 0.25}
     end-of-glacial:     {k_th: 0.006}
     interglacial:       {k: 2.0e-5}            # a parameter the defaults do not set
-    downstream_k_d:     {present: 0.1, lowest: 3, range_m: 150}
+    downstream_k_d:     {present: 3, lowest: 0.1, range_m: 150}
 
 Every key is optional; a value given replaces the default of that phase only; a parameter not
 set for a phase keeps the run's ordinary value in that phase. Parameter names are the
 project's (``k_th``, ``precipitation``, ``k_d``, ``k``, ``uplift``…) or the papers' symbols
 ``K_th``, ``p``, ``K_d``, ``K``, ``U``.
+
+How a phase's value meets the run's own (``Schedule.apply``): a number is replaced by the
+phase's value; a raster (a map of the parameter, e.g. K_th varying with the rock) is taken as
+the present-day, interglacial field and scaled by the phase's value relative to the
+interglacial one, so that its pattern survives every phase (000 §6: parameters "can vary in
+space and time")::
+
+    v(x, phase) = raster(x) · v_phase / v_interglacial
+
+e.g. a K_th raster in a glacial step is multiplied by 0.008 / 0.002 = 4 and a precipitation
+raster by 0.3 / 0.6 = 0.5. A phase that sets a parameter the interglacial does not set (or sets
+to 0) gives a raster of it nothing to be scaled from, and is refused.
 """
 
 from __future__ import annotations
@@ -67,16 +83,16 @@ DEFAULT_PHASE_VALUES: dict[str, dict[str, float]] = {
 
 @dataclass(frozen=True)
 class DownstreamKd:
-    """Downstream K_d following sea level, clamped (000 §5.2).
+    """Downstream K_d following sea level, clamped (000 §5.2, in the direction of Table 1).
 
     Attributes:
-        present: k_d at present sea level or higher (m/y).
-        lowest: k_d at ``range_m`` below present or lower (m/y).
+        present: k_d at present sea level or higher (m/y): interglacial deposition.
+        lowest: k_d at ``range_m`` below present or lower (m/y): glacial incision.
         range_m: the sea-level fall over which k_d goes from ``present`` to ``lowest`` (m, > 0).
     """
 
-    present: float = 0.1
-    lowest: float = 3.0
+    present: float = 3.0
+    lowest: float = 0.1
     range_m: float = 150.0
 
     def __post_init__(self) -> None:
@@ -171,9 +187,47 @@ class Schedule:
         Raises:
             ValueError: unknown phase or non-finite sea level (one sentence).
         """
+        return {**self._phase(phase), DOWNSTREAM_K_D: self.downstream_k_d(sea_level_m)}
+
+    def factor(self, name: str, phase: str) -> float:
+        """How much a present-day raster of parameter ``name`` is scaled in ``phase``:
+        v_phase / v_interglacial, 1 where the phase does not set ``name`` or sets the
+        interglacial value (module docstring).
+
+        Raises:
+            ValueError: unknown phase, or the phase sets ``name`` but the interglacial sets no
+                non-zero value of it (one sentence).
+        """
+        own = self._phase(phase).get(name)
+        present = self.phases[INTERGLACIAL].get(name)
+        if own is None or own == present:
+            return 1.0
+        if not present:
+            raise ValueError(
+                f"the schedule sets {name} for {phase} but no non-zero value for {INTERGLACIAL}, so "
+                f"a raster of {name} (the present-day field) has nothing to be scaled from; "
+                f"give {INTERGLACIAL}: {{{name}: VALUE}}")
+        return own / present
+
+    def apply(self, phase: str, ordinary: Mapping[str, float | np.ndarray]) -> dict[str, float | np.ndarray]:
+        """The run's parameters in ``phase``: ``ordinary`` (name → number or raster, in the
+        parameter's SI unit) with the phase's values put over it, a number replaced and a
+        raster scaled by :meth:`factor` (module docstring).
+
+        Raises:
+            ValueError: as :meth:`factor`, for a raster only.
+        """
+        out = dict(ordinary)
+        for name, value in self._phase(phase).items():
+            if name in out:
+                out[name] = value if np.ndim(out[name]) == 0 else out[name] * self.factor(name, phase)
+        return out
+
+    def _phase(self, phase: str) -> Mapping[str, float]:
+        """The values ``phase`` sets; ValueError (one sentence) for an unknown phase."""
         if phase not in PHASES:
             raise ValueError(f"unknown climate phase {phase!r}; use one of {', '.join(PHASES)}")
-        return {**self.phases[phase], DOWNSTREAM_K_D: self.downstream_k_d(sea_level_m)}
+        return self.phases[phase]
 
     def downstream_k_d(self, sea_level_m: float) -> float:
         """k_d (m/y) of the downstream region at sea level ``sea_level_m`` (m relative to

@@ -1,12 +1,13 @@
 """A `climate-run` job: (un)erode a DEM step by step along a paleo-climate chronology
-(000 §5, DESIGN §7), with sea-level Dirichlet boundaries, snapshots at asked ages, a timeline,
-checkpoints and resume.
+(000 §5, DESIGN §7), with boundary nodes that follow their base level (the sea for the coast,
+else fixed, uplifted or from a table), snapshots at asked ages, a timeline, checkpoints and
+resume.
 
 Ages are in ka at the edges (options, files, tags) and converted to years inside. A step of
 ``dt`` years goes from age a to a ± dt/1000 ka; its phase and scheduled parameters are those of
-its middle age, and the boundary nodes are set, before the step, to their elevation at the
-step's end age: h_b(t) = h_b(start) + (sea(t) − sea(start)), so that after each step they follow
-the sea level exactly.
+its middle age, and the boundary nodes are set, before the step, to their base level at the
+step's end age (``run.boundaries.BaseLevels``), e.g. h_b(t) = h_b(start) + (sea(t) − sea(start))
+on the coast, so that after each step they follow it exactly.
 """
 
 from __future__ import annotations
@@ -23,19 +24,21 @@ import numpy as np
 
 from unerode_cli import __version__
 from unerode_cli.climate.chronology import Series
-from unerode_cli.climate.phases import PhaseThresholds, classify
-from unerode_cli.climate.schedule import Schedule, downstream_mask
+from unerode_cli.climate.phases import PHASES, PhaseThresholds, classify
+from unerode_cli.climate.schedule import DOWNSTREAM_K_D, Schedule, downstream_mask
 from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, sea_level
+from unerode_cli.climate.uplift import FACTOR_COLUMN, RATE_COLUMN, UpliftHistory
 from unerode_cli.errors import InputError
 from unerode_cli.io.checkpoints import read_checkpoint, write_checkpoint
-from unerode_cli.io.chronology_files import read_series
+from unerode_cli.io.chronology_files import read_age_table, read_series
 from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.grid_rasters import load_on_grid
 from unerode_cli.io.paths import atomic_path, check_output, file_sha256
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.yaml_files import read_yaml_mapping
-from unerode_cli.run.boundaries import Boundaries, boundaries_from_options
+from unerode_cli.processes.parameters import UPLIFT
+from unerode_cli.run.boundaries import BaseLevels, base_levels_from_options, edge_base_table
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
 from unerode_cli.run.outputs import (
     AGE_TAG,
@@ -83,6 +86,8 @@ class ClimateJob:
     outlets: str = "all"
     dirichlet: Path | None = None
     sea_outlets: bool = True
+    coast: str = "none"
+    edge_base: str = "fixed"
     checkpoint_every: int = 10
     resume: bool = False
     max_steps: int | None = None
@@ -95,6 +100,7 @@ class ClimateJob:
     co: list[str] | None = None
     overwrite: bool = False
     preview: Path | None = None
+    uplift_map: Path | None = None
     parameter_values: dict[str, str | None] = field(default_factory=dict)
 
     @property
@@ -122,12 +128,13 @@ class PreparedClimateRun:
     base_values: dict[str, Any]
     schedule: Schedule
     forcing: Forcing
-    boundary_nodes: np.ndarray
+    base_levels: BaseLevels
     downstream: np.ndarray | None
     steps: int
     outputs: Outputs
     chronology: Series
     fingerprint: str
+    uplift: UpliftHistory | None = None
 
 
 def timeline_path(output: Path) -> Path:
@@ -202,7 +209,8 @@ def _fingerprint(job: ClimateJob) -> str:
         fields.pop(key)
     digest = hashlib.sha256(json.dumps(fields, sort_keys=True, default=str).encode())
     for path in (job.source, job.chronology, job.sea_level_file, job.schedule_file,
-                 job.downstream_mask, job.dirichlet):
+                 job.downstream_mask, job.dirichlet, edge_base_table(job.edge_base), job.uplift_map,
+                 *_parameter_files(job)):
         if path is not None:
             digest.update(file_sha256(Path(path)).encode())
     digest.update(__version__.encode())
@@ -245,21 +253,70 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
     except ValueError as exc:
         raise InputError(f"{job.schedule_file}: {exc}") from None
     given = given_values(None, job.parameter_values, names)
+    table = given.pop(UPLIFT.name) if _is_table(given.get(UPLIFT.name)) else None
     base = {}
     for name in names:
         for spec in REGISTRY[name].parameters:
             text = given.get(spec.name)
             base[spec.name] = resolve(spec, spec.default if text is None else text, terrain)
-    bounds = boundaries_from_options(terrain, job.outlets, None, job.dirichlet)
-    nodes = bounds.dirichlet if bounds.dirichlet is not None else \
-        bounds.outlets(terrain.elevation, terrain)
+    _check_scalable(job, schedule, base)
+    uplift = _uplift_history(job, table, terrain, schedule)
+    base_levels = base_levels_from_options(
+        terrain, job.outlets, job.dirichlet, job.coast, job.edge_base,
+        forcing.sea_start if job.sea_outlets else None, (job.from_ka, job.to_ka))
     downstream = None
     if job.downstream_mask is not None or job.downstream_below is not None:
         mask = (load_on_grid(job.downstream_mask, terrain, "downstream mask") != 0
                 if job.downstream_mask else None)
         downstream = downstream_mask(terrain.elevation, job.downstream_below, mask)
-    return PreparedClimateRun(job, terrain, names, base, schedule, forcing, nodes, downstream,
-                              steps, outputs, chronology, _fingerprint(job))
+    return PreparedClimateRun(job, terrain, names, base, schedule, forcing, base_levels, downstream,
+                              steps, outputs, chronology, _fingerprint(job), uplift)
+
+
+def _parameter_files(job: ClimateJob) -> list[Path]:
+    """The files given as parameter values (rasters, the uplift table)."""
+    return [Path(text) for text in job.parameter_values.values()
+            if text is not None and Path(text).is_file()]
+
+
+def _is_table(text: str | None) -> bool:
+    """Whether a parameter value names a CSV table through time rather than a number or raster."""
+    return text is not None and Path(text).suffix.lower() == ".csv"
+
+
+def _check_scalable(job: ClimateJob, schedule: Schedule, base: dict[str, Any]) -> None:
+    """Refuse, before any step, a schedule that cannot scale one of the run's rasters."""
+    try:
+        for phase in PHASES:
+            schedule.apply(phase, base)
+    except ValueError as exc:
+        raise InputError(f"{job.schedule_file}: {exc}.") from None
+
+
+def _uplift_history(job: ClimateJob, table: str | None, terrain: Terrain,
+                    schedule: Schedule) -> UpliftHistory | None:
+    """``--uplift TABLE.csv`` (``age_ka`` and ``U_m_per_y``, or ``factor`` times the raster of
+    ``--uplift-map``) covering the whole run; None when ``--uplift`` is a number or a raster."""
+    if table is None:
+        if job.uplift_map is not None:
+            raise InputError(f"--uplift-map needs --uplift TABLE.csv with columns age_ka,{FACTOR_COLUMN}.")
+        return None
+    series = read_age_table(Path(table), "uplift", (RATE_COLUMN, FACTOR_COLUMN))
+    if not series.covers(np.array([job.from_ka, job.to_ka])):
+        raise InputError(f"the uplift table {table} covers {series.start_ka:g}–{series.end_ka:g} ka, "
+                         f"not the whole run from {job.from_ka:g} to {job.to_ka:g} ka.")
+    if any(UPLIFT.name in values for values in schedule.phases.values()):
+        raise InputError(f"the schedule {job.schedule_file} sets the uplift per phase and --uplift is a "
+                         "table; give the uplift through time in one of them.")
+    if series.name == RATE_COLUMN:
+        if job.uplift_map is not None:
+            raise InputError(f"--uplift-map multiplies an uplift table of {FACTOR_COLUMN}, and {table} "
+                             f"holds {RATE_COLUMN}.")
+        return UpliftHistory(series)
+    if job.uplift_map is None:
+        raise InputError(f"the uplift table {table} holds a {FACTOR_COLUMN}; give the raster it "
+                         "multiplies (m/y) with --uplift-map.")
+    return UpliftHistory(series, resolve(UPLIFT, str(job.uplift_map), terrain))
 
 
 def _check_checkpoint(job: ClimateJob) -> None:
@@ -272,22 +329,44 @@ def _check_checkpoint(job: ClimateJob) -> None:
     check_output(path, True, (job.source,))
 
 
-def _step_values(prepared: PreparedClimateRun, k: int) -> tuple[dict[str, Any], dict[str, float]]:
-    """Parameter values of step k (0-based) and the scheduled scalars written to the timeline."""
+def step_values(prepared: PreparedClimateRun, k: int) -> tuple[dict[str, Any], dict[str, float]]:
+    """Parameter values of step k (0-based), and the scalars written to its timeline row.
+
+    The run's own values (numbers or rasters; U from the uplift table's mean over the step,
+    ``climate.uplift``) with the phase's put over them (``Schedule.apply``: a number replaced, a
+    raster scaled by v_phase / v_interglacial), and k_d inside the downstream region following
+    sea level (000 §5.2). The row holds the phase's values of the run's parameters, the
+    downstream k_d (m/y) when the run has k_d, and the uplift used, ``uplift_m_per_y`` (m/y, the
+    mean over the DEM's cells for a raster).
+    """
     forcing = prepared.forcing
-    scheduled = prepared.schedule.values(str(forcing.phase[k]), float(forcing.sea_mid[k]))
-    values = dict(prepared.base_values)
-    values.update({name: value for name, value in scheduled.items() if name in values})
-    if prepared.downstream is not None and "k_d" in values:
-        kd_down = prepared.schedule.downstream_k_d(float(forcing.sea_mid[k]))
-        values["k_d"] = np.where(prepared.downstream, kd_down, values["k_d"])
-        scheduled = {**scheduled, "downstream_k_d": kd_down}
-    return values, scheduled
+    phase, sea = str(forcing.phase[k]), float(forcing.sea_mid[k])
+    ordinary = dict(prepared.base_values)
+    if prepared.uplift is not None and UPLIFT.name in ordinary:
+        start = 2.0 * float(forcing.mid_ka[k]) - float(forcing.end_ka[k])
+        ordinary[UPLIFT.name] = prepared.uplift.over(start, float(forcing.end_ka[k]))
+    values = prepared.schedule.apply(phase, ordinary)
+    scheduled = prepared.schedule.values(phase, sea)
+    row = {name: value for name, value in scheduled.items() if name in values}
+    if "k_d" in values:
+        row[DOWNSTREAM_K_D] = scheduled[DOWNSTREAM_K_D]
+        if prepared.downstream is not None:
+            values["k_d"] = np.where(prepared.downstream, scheduled[DOWNSTREAM_K_D], values["k_d"])
+    if UPLIFT.name in values:
+        row["uplift_m_per_y"] = _domain_mean(values[UPLIFT.name], prepared.terrain)
+    return values, row
+
+
+def _domain_mean(value: float | np.ndarray, terrain: Terrain) -> float:
+    """A number, or the mean of a raster over the DEM's cells (nodata excluded)."""
+    if np.ndim(value) == 0:
+        return float(value)
+    return float(np.mean(np.asarray(value)[~terrain.nodata_mask]))
 
 
 def _processes(prepared: PreparedClimateRun, values: dict[str, Any], sea_end: float) -> list:
     job = prepared.job
-    bounds = Boundaries(job.outlets, sea_end if job.sea_outlets else None, prepared.boundary_nodes)
+    bounds = prepared.base_levels.boundaries(sea_end if job.sea_outlets else None)
     options = {"scheme": job.scheme, "method": job.method,
                "constraints": thermal_constraints(job.constraints)}
     return build_processes(prepared.names, prepared.terrain, bounds, values, options)
@@ -298,13 +377,12 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
     job, terrain, forcing = prepared.job, prepared.terrain, prepared.forcing
     start_time = time.perf_counter()
     h, first, rows = _start_state(prepared, on_note)
-    h0_nodes = terrain.elevation[prepared.boundary_nodes]
     signed_dt = (-1.0 if job.backward else 1.0) * job.dt
     last = prepared.steps if job.max_steps is None else min(prepared.steps, first + job.max_steps)
     snapshots = {round(a, 9) for a in job.snapshots_ka}
     noted: set[str] = set()
-    guard = DivergenceGuard(terrain.elevation, max_rate(prepared.base_values.get("uplift", 0.0)),
-                            "lower --dt or the rates (K, k_th), or drop a process that runs away backward")
+    guard = DivergenceGuard(terrain.elevation, hint="lower --dt or the rates (K, k_th), or drop a "
+                            "process that runs away backward")
 
     def note_once(message: str) -> None:
         """Pass a sub-stepping note on at its first climate step only (one per process)."""
@@ -314,9 +392,11 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
             on_note(f"{message[:-1]}, first at {forcing.end_ka[k]:g} ka; no further note.")
 
     for k in range(first, last):
-        values, scheduled = _step_values(prepared, k)
+        values, scheduled = step_values(prepared, k)
+        guard.uplift_rate = max(guard.uplift_rate, max_rate(values.get(UPLIFT.name, 0.0)))  # U may vary
         sea_end = float(forcing.sea_end[k])
-        h[prepared.boundary_nodes] = h0_nodes + (sea_end - forcing.sea_start)
+        prepared.base_levels.set_levels(h, terrain.elevation, sea_end - forcing.sea_start,
+                                        float(forcing.end_ka[k]), values.get("uplift", 0.0), signed_dt)
         before = h.copy()
         h, report = run(h, _processes(prepared, values, sea_end), signed_dt, 1,
                         job.allow_substeps, None, note_once)
@@ -347,7 +427,8 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
     checkpoint_path(job.output).unlink(missing_ok=True)
     return (f"{COMMAND}: {prepared.steps} steps of {job.dt:g} y from {job.from_ka:g} to "
             f"{job.to_ka:g} ka; wrote {job.output}, {timeline_path(job.output).name}, "
-            f"{chronology_png_path(job.output).name} and {len(job.snapshots_ka)} snapshot(s)")
+            f"{chronology_png_path(job.output).name} and {len(job.snapshots_ka)} snapshot(s); "
+            f"{prepared.base_levels.summary()}")
 
 
 def _start_state(prepared: PreparedClimateRun, on_note) -> tuple[np.ndarray, int, list[dict]]:
@@ -388,7 +469,7 @@ def _save_state(prepared: PreparedClimateRun, h: np.ndarray, k: int, path: Path,
                        TIME_TAG: repr((age - job.from_ka) * -1000.0)})
     outputs = prepared.outputs if final else Outputs(path, prepared.outputs.options, True)
     statistics = {"age_ka": age, "sea_level_m": float(forcing.sea_end[k]),
-                  "phase": str(forcing.phase[k])}
+                  "phase": str(forcing.phase[k]), "boundaries": prepared.base_levels.counts()}
     if final and rows is not None:
         statistics.update({"steps": prepared.steps, "wall_time_s": wall,
                            "eroded_m3": float(sum(r["eroded_m3"] for r in rows)),
