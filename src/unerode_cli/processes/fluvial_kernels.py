@@ -52,10 +52,12 @@ def _axis_gradient(h0, ha, hb, d, mode):
     return up - phi * (up - abs(ha - hb) / (2.0 * d))
 
 
-@numba.njit(cache=True)
 def slope_magnitude(h, valid, dx, dy, mode):
     """|∇h| = sqrt(gx² + gy²) (m/m) of every valid cell, per-axis magnitudes from
     ``_axis_gradient``; a neighbour off the grid or on nodata counts as the cell itself.
+
+    A plain function around the parallel ``slope_into``: a cached kernel that calls a cached
+    parallel kernel can crash when it is loaded back from numba's on-disk cache.
 
     Args:
         h: float64[ny, nx] elevation (m), row 0 = north.
