@@ -93,7 +93,7 @@ def test_thermal_unerosion_without_constraints_runs(tmp_path: Path, mountain: Pa
     on, off = tmp_path / "on.tif", tmp_path / "off.tif"
     for out, constraints in ((on, "slope,convexity,rate"), (off, "none")):
         result = run_cli("unerode", mountain, out, "--process", "thermal", "--dt", 500,
-                         "--steps", 2, "--k-th", "0.008", "--thermal-constraints", constraints)
+                         "--steps", 2, "--k-th", "8", "--thermal-constraints", constraints)
         assert result.returncode == 0, result.stderr
     h0 = read_terrain(mountain).elevation
     # without constraints, un-deposition digs deeper below the input

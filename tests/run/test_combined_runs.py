@@ -14,7 +14,7 @@ from unerode_cli.run.runner import run
 from unerode_cli.synthetic import synthesize
 
 VALUES = {"uplift": 0.0, "k": 2e-5, "k_d": 1.0, "precipitation": 1.0, "m": 0.4, "n": 1.0,
-          "k_th": 0.004, "talus_angle": 30.0, "alpha": 1.0, "max_undeposition": 0.01}
+          "k_th": 4.0, "talus_angle": 30.0, "alpha": 1.0, "max_undeposition": 0.01}
 
 
 def processes(terrain: Terrain, names: list[str]):

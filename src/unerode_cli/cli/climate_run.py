@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from unerode_cli.cli.erode import PARAMETER_PANELS, Scheme
+from unerode_cli.cli.erode import PARAMETER_PANELS, Inflow, Scheme
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
     BOUNDARY_PANEL,
@@ -69,6 +69,7 @@ def climate_run(
     uplift_map: Annotated[Path | None, typer.Option(help="Uplift raster (m/y) on the DEM's grid, multiplied through time by the factor of --uplift TABLE.csv (columns age_ka,factor); --uplift also takes a table age_ka,U_m_per_y, linear in age, covering the run.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
     outlets: Outlets = "all",
     dirichlet: Dirichlet = None,
+    inflow: Inflow = None,
     sea_outlets: Annotated[bool, typer.Option("--sea-outlets/--no-sea-outlets", help="Cells at or below the current sea level are outlets, and boundary nodes at or below the sea level of --from follow sea level.", rich_help_panel=BOUNDARY_PANEL)] = True,
     coast: Coast = "none",
     edge_base: EdgeBase = "fixed",
@@ -103,7 +104,7 @@ def climate_run(
             dt=dt, process=process, snapshots_ka=snapshots or (), schedule_file=params,
             downstream_below=downstream_below, downstream_mask=downstream_mask, uplift_map=uplift_map,
             outlets=outlets, dirichlet=dirichlet, sea_outlets=sea_outlets, coast=coast,
-            edge_base=edge_base,
+            edge_base=edge_base, inflow=inflow,
             checkpoint_every=checkpoint_every, resume=resume, max_steps=max_steps,
             allow_substeps=not no_substep, scheme=scheme.value, method=method.value,
             constraints=thermal_constraints, dtype=dtype.value, cog=cog, co=co,

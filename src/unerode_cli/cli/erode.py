@@ -10,6 +10,7 @@ import typer
 
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
+    BOUNDARY_PANEL,
     POSITIVE_YEARS,
     Band,
     Channel,
@@ -43,6 +44,7 @@ PARAMETER_PANELS = {
     "Hillslope parameters (001 §6.4)": hillslope.PARAMETERS,
     "Debris-flow parameters (001 Eq. 8)": debris.PARAMETERS,
 }
+Inflow = Annotated[Path | None, typer.Option("--inflow", help="CSV of rivers entering the map, columns x,y,discharge_m3_per_y,sediment_m3_per_y (DEM's CRS; m³/y): each point is snapped to the nearest valid cell, within one cell of the edge or of nodata and not an outlet, where its water joins the discharge and its sediment the fluvial sediment flux.", rich_help_panel=BOUNDARY_PANEL)]
 PROCESS_HELP = ("Process(es), comma-separated, applied in this order within each step (operator "
                 "splitting): fluvial, thermal, thermal-ca (forward only), hillslope (forward only), "
                 "debris (forward only).")
@@ -69,6 +71,7 @@ def _command(backward: bool):
         outlets: Outlets = "all",
         sea_level: SeaLevel = None,
         dirichlet: Dirichlet = None,
+        inflow: Inflow = None,
         band: Band = None,
         channel: Channel = None,
         dtype: DtypeOpt = Dtype.float32,
@@ -92,7 +95,7 @@ def _command(backward: bool):
                 method=method.value, outlets=outlets, sea_level=sea_level, dirichlet=dirichlet,
                 band=band, channel=channel, dtype=dtype.value, cog=cog, co=co,
                 overwrite=overwrite, preview=preview, parameter_values=parameter_values or {},
-                params_file=params, constraints=thermal_constraints,
+                params_file=params, constraints=thermal_constraints, inflow=inflow,
             )
             prepared = plan(job)
             with progress_bar(prepared.steps, verb, verbose - quiet) as advance:

@@ -6,7 +6,8 @@ sea level (000 §5.2, Table 1).
 (while sea level fluctuates by 150 meters, K_d fluctuates from 0.1 to 3). The precipitation
 rate p is lowered in glacial periods (from 0.6 to 0.3 m/year)". Defaults here:
 
-- ``k_th`` (m/y): interglacial 0.002, end of glacial 0.005, glacial 0.008;
+- ``k_th`` (m/ky, the unit of 000 Table 2, see ``processes.thermal``): interglacial 0.002, end
+  of glacial 0.005, glacial 0.008;
 - ``precipitation`` (m/y): interglacial 0.6, end of glacial 0.45, glacial 0.3.
 
 The end-of-glacial values are our choice (the paper gives none): midway, because 000 Table 1
@@ -73,7 +74,7 @@ ALIASES: dict[str, str] = {"K_th": "k_th", "p": "precipitation", "K_d": "k_d", "
 #: Parameters that must not be negative (rates and coefficients).
 NON_NEGATIVE: frozenset[str] = frozenset({"k_th", "precipitation", "k_d", "k"})
 
-#: Default per-phase values (000 §5.2; end of glacial: midway, our choice).
+#: Default per-phase values (000 §5.2; end of glacial: midway, our choice); k_th in m/ky.
 DEFAULT_PHASE_VALUES: dict[str, dict[str, float]] = {
     GLACIAL: {"k_th": 0.008, "precipitation": 0.3},
     END_OF_GLACIAL: {"k_th": 0.005, "precipitation": 0.45},
@@ -116,7 +117,7 @@ class Schedule:
     """Process parameters per climate phase, and the downstream K_d (see the module docstring).
 
     Attributes:
-        phases: phase name → {parameter name: value in the parameter's SI unit}.
+        phases: phase name → {parameter name: value in the parameter's declared unit}.
         downstream: the downstream K_d rule.
     """
 
@@ -180,7 +181,7 @@ class Schedule:
         """Scalar parameter values for a step in ``phase`` at sea level ``sea_level_m`` (m).
 
         Returns the parameters the schedule sets for that phase (name → value in the
-        parameter's SI unit; a parameter absent keeps the run's ordinary value), plus
+        parameter's declared unit; a parameter absent keeps the run's ordinary value), plus
         :data:`DOWNSTREAM_K_D` → :meth:`downstream_k_d` (m/y), which is not a process parameter:
         it replaces ``k_d`` inside the downstream region only.
 
@@ -211,7 +212,7 @@ class Schedule:
 
     def apply(self, phase: str, ordinary: Mapping[str, float | np.ndarray]) -> dict[str, float | np.ndarray]:
         """The run's parameters in ``phase``: ``ordinary`` (name → number or raster, in the
-        parameter's SI unit) with the phase's values put over it, a number replaced and a
+        parameter's declared unit) with the phase's values put over it, a number replaced and a
         raster scaled by :meth:`factor` (module docstring).
 
         Raises:

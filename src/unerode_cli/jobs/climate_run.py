@@ -37,6 +37,7 @@ from unerode_cli.io.paths import atomic_path, check_output, file_sha256
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.yaml_files import read_yaml_mapping
+from unerode_cli.processes.fluvial import Inflow
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import BaseLevels, base_levels_from_options, edge_base_table
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
@@ -55,6 +56,7 @@ from unerode_cli.run.registry import (
     REGISTRY,
     build_processes,
     given_values,
+    inflow_for,
     parse_process_list,
     thermal_constraints,
 )
@@ -101,6 +103,7 @@ class ClimateJob:
     overwrite: bool = False
     preview: Path | None = None
     uplift_map: Path | None = None
+    inflow: Path | None = None
     parameter_values: dict[str, str | None] = field(default_factory=dict)
 
     @property
@@ -135,6 +138,7 @@ class PreparedClimateRun:
     chronology: Series
     fingerprint: str
     uplift: UpliftHistory | None = None
+    inflow: Inflow | None = None
 
 
 def timeline_path(output: Path) -> Path:
@@ -210,7 +214,7 @@ def _fingerprint(job: ClimateJob) -> str:
     digest = hashlib.sha256(json.dumps(fields, sort_keys=True, default=str).encode())
     for path in (job.source, job.chronology, job.sea_level_file, job.schedule_file,
                  job.downstream_mask, job.dirichlet, edge_base_table(job.edge_base), job.uplift_map,
-                 *_parameter_files(job)):
+                 job.inflow, *_parameter_files(job)):
         if path is not None:
             digest.update(file_sha256(Path(path)).encode())
     digest.update(__version__.encode())
@@ -269,8 +273,10 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
         mask = (load_on_grid(job.downstream_mask, terrain, "downstream mask") != 0
                 if job.downstream_mask else None)
         downstream = downstream_mask(terrain.elevation, job.downstream_below, mask)
+    inflow = inflow_for(job.inflow, names, terrain,
+                        base_levels.boundaries(forcing.sea_start if job.sea_outlets else None))
     return PreparedClimateRun(job, terrain, names, base, schedule, forcing, base_levels, downstream,
-                              steps, outputs, chronology, _fingerprint(job), uplift)
+                              steps, outputs, chronology, _fingerprint(job), uplift, inflow)
 
 
 def _parameter_files(job: ClimateJob) -> list[Path]:
@@ -368,7 +374,7 @@ def _processes(prepared: PreparedClimateRun, values: dict[str, Any], sea_end: fl
     job = prepared.job
     bounds = prepared.base_levels.boundaries(sea_end if job.sea_outlets else None)
     options = {"scheme": job.scheme, "method": job.method,
-               "constraints": thermal_constraints(job.constraints)}
+               "constraints": thermal_constraints(job.constraints), "inflow": prepared.inflow}
     return build_processes(prepared.names, prepared.terrain, bounds, values, options)
 
 
@@ -406,6 +412,8 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
                      "sea_level_m": sea_end, **scheduled,
                      "eroded_m3": sum(b.eroded for b in report.budgets.values()),
                      "deposited_m3": sum(b.deposited for b in report.budgets.values()),
+                     **({"inflow_m3": sum(b.inflow for b in report.budgets.values())}
+                        if job.inflow else {}),
                      "mean_abs_dh_m": float(change.mean()), "max_abs_dh_m": float(change.max())})
         if round(float(forcing.end_ka[k]), 9) in snapshots:
             _save_state(prepared, h, k, snapshot_path(job.output, float(forcing.end_ka[k])))
@@ -474,6 +482,8 @@ def _save_state(prepared: PreparedClimateRun, h: np.ndarray, k: int, path: Path,
         statistics.update({"steps": prepared.steps, "wall_time_s": wall,
                            "eroded_m3": float(sum(r["eroded_m3"] for r in rows)),
                            "deposited_m3": float(sum(r["deposited_m3"] for r in rows)),
+                           **({"inflow_m3": float(sum(r["inflow_m3"] for r in rows))}
+                              if job.inflow else {}),
                            "snapshots": [str(snapshot_path(job.output, a))
                                          for a in job.snapshots_ka]})
     save(state, outputs, COMMAND, _provenance(job), statistics)

@@ -31,6 +31,7 @@ from unerode_cli.run.registry import (
     REGISTRY,
     build_processes,
     given_values,
+    inflow_for,
     parse_process_list,
     thermal_constraints,
 )
@@ -66,6 +67,7 @@ class ErosionJob:
     parameter_values: dict[str, str | None] = field(default_factory=dict)
     params_file: Path | None = None
     constraints: str = ",".join(thermal.CONSTRAINTS)
+    inflow: Path | None = None
 
     @property
     def command(self) -> str:
@@ -140,7 +142,8 @@ def plan(job: ErosionJob) -> PreparedJob:
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
     given = given_values(job.params_file, job.parameter_values, names)
     options = {"scheme": job.scheme, "method": job.method,
-               "constraints": thermal_constraints(job.constraints)}
+               "constraints": thermal_constraints(job.constraints),
+               "inflow": inflow_for(job.inflow, names, terrain, bounds)}
     values: dict[str, Any] = {}
     parameters: dict[str, Any] = {}
     for name in names:
@@ -206,7 +209,7 @@ def _provenance(prepared: PreparedJob) -> dict[str, Any]:
             "scheme": job.scheme, "method": job.method, "outlets": job.outlets,
             "sea_level": job.sea_level, "dirichlet": job.dirichlet,
             "allow_substeps": job.allow_substeps, "params_file": job.params_file,
-            "thermal_constraints": job.constraints, **prepared.parameters}
+            "thermal_constraints": job.constraints, "inflow": job.inflow, **prepared.parameters}
 
 
 def _statistics(report: RunReport, change: np.ndarray, wall: float,
@@ -217,7 +220,7 @@ def _statistics(report: RunReport, change: np.ndarray, wall: float,
         "substeps": report.substeps,
         "elapsed_years": report.elapsed_years,
         "mass_budget_m3": {name: {"eroded": b.eroded, "deposited": b.deposited,
-                                  "outflux": b.outflux, "residual": b.residual}
+                                  "outflux": b.outflux, "inflow": b.inflow, "residual": b.residual}
                            for name, b in report.budgets.items()},
         "mean_abs_change_m": float(np.abs(change[valid]).mean()),
         "max_abs_change_m": float(np.abs(change[valid]).max()),

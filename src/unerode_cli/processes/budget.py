@@ -14,18 +14,21 @@ class MassBudget:
     ``eroded`` is the volume taken from the surface (Σ max(0, −e)·A over free cells, with e the
     elevation change due to the process alone), ``deposited`` the volume added to it
     (Σ max(0, e)·A), and ``outflux`` the volume that leaves the domain through outlets or edges
-    (negative when a backward step brings material in). A mass-conserving process has
-    eroded − deposited − outflux = 0.
+    (negative when a backward step brings material in), and ``inflow`` the volume that enters
+    it from upstream of the map (fluvial inflow; negative when a backward step sends it back).
+    A mass-conserving process has eroded + inflow − deposited − outflux = 0.
     """
 
     eroded: float
     deposited: float
     outflux: float
+    inflow: float = 0.0
 
     @property
     def residual(self) -> float:
-        """eroded − deposited − outflux (m³); zero up to rounding for a conserving process."""
-        return self.eroded - self.deposited - self.outflux
+        """eroded + inflow − deposited − outflux (m³); zero up to rounding for a conserving
+        process."""
+        return self.eroded + self.inflow - self.deposited - self.outflux
 
 
 @dataclass(frozen=True)

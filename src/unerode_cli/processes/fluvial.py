@@ -9,6 +9,14 @@ from the sediment flux arriving from upstream) and the sediment flux leaving eac
 (dt < 0, unerosion and un-deposition) the limited blend of upwind and centred slopes
 (000 Eq. 10–12), or the plain upwind slope for comparison.
 
+Rivers may enter the domain from upstream of the map (000 §6.3.1, ``Inflow``): their discharge
+is a source of water at the cell where they enter, added before accumulation (000 Eq. 5), and
+their sediment flux arrives there as incoming Q_s in the descending pass (000 Eq. 7–8), so it
+deposits downstream per K_d. The sediment brought in, dt·ΣQ_s,in (m³), is the budget's
+``inflow`` term. Backward (dt < 0) the same inflow runs with time reversed: what it deposited
+forward is un-deposited and leaves through the inflow cells, a negative ``inflow`` term, just
+as material comes in through the outlets (a negative outflux).
+
 The numba kernels are imported on first use, so that reading ``PARAMETERS`` (CLI help) does
 not load numba.
 """
@@ -93,6 +101,19 @@ class FluvialParams:
 
 
 @dataclass(frozen=True)
+class Inflow:
+    """Water and sediment entering the domain from upstream (000 §6.3.1), per cell.
+
+    Attributes:
+        discharge: float64[ny, nx] water discharge Q_in (m³/y) entering each cell, 0 where none.
+        sediment: float64[ny, nx] sediment flux Q_s,in (m³/y) entering each cell, 0 where none.
+    """
+
+    discharge: np.ndarray
+    sediment: np.ndarray
+
+
+@dataclass(frozen=True)
 class FluvialChange:
     """What one fluvial step does to the terrain.
 
@@ -131,6 +152,7 @@ def step(
     routing: Routing | None = None,
     scheme: Scheme = "limiter",
     method: str = "mfd",
+    inflow: Inflow | None = None,
 ) -> FluvialChange:
     """One step of fluvial erosion and deposition (dt > 0) or their reversal (dt < 0).
 
@@ -145,9 +167,11 @@ def step(
             computed here with ``method`` when not given.
         scheme: slope of backward steps: ``"limiter"`` (000 Eq. 12) or ``"upwind"`` (Eq. 10).
         method: routing method when ``routing`` is not given: ``"mfd"`` or ``"d8"``.
+        inflow: water and sediment entering the domain (m³/y per cell), or None.
 
     Returns:
-        the change (Δh with the uplift U·dt included), the fluxes Q and Q_s and the mass budget.
+        the change (Δh with the uplift U·dt included), the fluxes Q and Q_s and the mass budget
+        (eroded + inflow − deposited − outflux = 0).
     """
     from unerode_cli.hydro.fields import flat_field
     from unerode_cli.hydro.routing import cell_sources, route, scratch
@@ -170,12 +194,17 @@ def step(
     coef = scratch("fluvial.coef", order.shape, np.float64)
     fk.erodibility_into(order, slope, flat_field(params.k, shape, "k"), float(params.n), coef)
     discharge = np.zeros(shape, dtype=np.float64)
-    sediment_flux = np.zeros(shape, dtype=np.float64)
+    sources = cell_sources(grid, params.precipitation)
+    if inflow is None:
+        sediment_flux = np.zeros(shape, dtype=np.float64)
+    else:
+        sources = sources + flat_field(inflow.discharge, shape, "inflow discharge")
+        sediment_flux = flat_field(inflow.sediment, shape, "inflow sediment").reshape(shape).copy()
     net = scratch("fluvial.net", order.shape, np.float64)
     fk.fluvial_sweep_into(
-        routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single,
-        cell_sources(grid, params.precipitation), coef, flat_field(params.k_d, shape, "k_d"),
-        float(params.m), discharge.ravel(), sediment_flux.ravel(), net,
+        routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single, sources, coef,
+        flat_field(params.k_d, shape, "k_d"), float(params.m), discharge.ravel(),
+        sediment_flux.ravel(), net,
     )
     dh = np.zeros(shape, dtype=np.float64)
     erosion, deposition, outflow = fk.settle_into(
@@ -183,7 +212,8 @@ def step(
         flat_field(params.uplift, shape, "uplift"), float(dt), grid.cell_area, dh.ravel(),
     )
     removed, added = (erosion, deposition) if dt >= 0 else (deposition, erosion)
-    budget = MassBudget(abs(dt) * removed, abs(dt) * added, dt * outflow)
+    brought = 0.0 if inflow is None else float(np.sum(inflow.sediment, dtype=np.float64))
+    budget = MassBudget(abs(dt) * removed, abs(dt) * added, dt * outflow, dt * brought)
     return FluvialChange(dh, sediment_flux, discharge, budget)
 
 
@@ -207,7 +237,8 @@ def max_stable_dt(
     i.e. K·Q^m·|dt|·√2/Δx ≤ 1 on a square grid. Returns ``inf`` when nothing erodes. The
     deposition term does not restrict the step (000 §6). ``discharge`` (m³/y, float[ny, nx]),
     when given, is the discharge of ``routing`` (e.g. ``FluvialChange.discharge`` of a step
-    on this elevation) and saves computing it again.
+    on this elevation, inflow included) and saves computing it again; without it, the
+    discharge of the precipitation alone.
     """
     from unerode_cli.hydro.fields import flat_field
     from unerode_cli.hydro.routing import accumulate, scratch

@@ -115,7 +115,7 @@ def fluvial_sweep_into(zf, outlets, order, dx, dy, single, source, coef, k_d, m,
     donors first (000 Algorithm 1). At each cell p, with every donor done:
 
       Q     = source + Σ_donors α·Q                 (m³/y, 000 Eq. 5)
-      Q̃s    = Σ_donors α·Qs                        (m³/y, arriving sediment flux)
+      Q̃s    = Qs,in + Σ_donors α·Qs                (m³/y, arriving sediment flux)
       E     = K·|∇h|^n·Q^m                          (m/y, 000 Eq. 1)
       D     = Q̃s·min(K_d/Q, 1/A)                  (deposition rate, m/y; A = dx·dy)
       Qs(p) = Q̃s + (E − D)·A ≥ 0                   (000 Eq. 7)
@@ -130,7 +130,9 @@ def fluvial_sweep_into(zf, outlets, order, dx, dy, single, source, coef, k_d, m,
         source: float64[ny*nx] p·A per cell (m³/y), or float64[1] for the same everywhere.
         coef: float64[order.size] K·|∇h|^n by position in ``order`` (``erodibility_into``).
         k_d: field K_d (m/y); m: discharge exponent.
-        q, qs: float64[ny*nx], all 0 on entry, set to Q and Qs (m³/y).
+        q: float64[ny*nx], all 0 on entry, set to Q (m³/y).
+        qs: float64[ny*nx], on entry the sediment flux entering each cell from outside the
+            domain (m³/y, 0 where none: 000 §6.3.1), set to Qs (m³/y).
         net: float64[order.size] set to E − D (m/y) by position in ``order`` (outlets: left
             as they were).
     """

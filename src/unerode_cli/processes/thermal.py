@@ -10,11 +10,36 @@ un-eroded and the rock is taken back from the cells below, with the un-depositio
 of 000 §4.2: slope (Eq. 16, α), convexity at the foot of un-eroded cliffs (Eq. 17) and a
 maximal un-deposition rate. Any of them can be switched off (000 Fig. 10).
 
-Units of K_th: m/y, the lowering rate of a cell whose slope exceeds tan θ by 1 (m/m). 000 §5.2
-quotes 0.002 (interglacial) to 0.008 (glacial) "per 1000 years" for its 1 ky iterations; we read
-these numbers as m/y, i.e. 2–8 mm/y of lowering per unit of slope excess, which is the order of
-measured freeze–thaw rock-wall retreat. At that rate a step of 1000 years on 30 m cells is
-within the stability limit (|dt| ≤ Δx/(√2·K_th) ≈ 2.6 ky for 0.008 m/y).
+Unit of K_th: m/ky, metres of lowering per 1000 years of a cell whose slope exceeds tan θ by 1
+(m/m); the kernels take K_th / 1000 in m/y (:func:`per_year`). 000 Table 2 gives K_th in
+"(1000 years)⁻¹", range [0, 0.5], with Δt = 1000 years and h in m; 000 Eq. 15 lowers a cell by
+Δt·K_th·(|∇h| − tan θ) metres, so K_th·Δt is a length and the unit left implicit by Table 2 is
+the metre of h: K_th is in m per 1000 years. 000 §5.2 schedules 0.002 (interglacial) to 0.008
+(glacial). Readings weighed (the table's unit is ambiguous):
+
+- m/ky (this one): 0.008 lowers a cell one unit of slope above tan θ by 8 mm per 1 ky step, at
+  most ≈ 6.5 m over Tautavel's 814 ka and ≈ 40 m over the Têt's 5 Ma, below the +4 to +20 m
+  terraces and the ≈ 260 m incision (55–92 mm/ka) that 000 §6.3 attributes to the rivers: thermal
+  erosion "is significantly slower" (000 §1). The CFL limit Δx/(√2·K_th) (ky) is 177 ky on 2 m cells
+  and 2.7 My on 30 m cells; even Table 2's largest 0.5 gives 2.8 ky on 2 m cells, so every
+  combination of Table 2 (Δx 2–30 m, Δt 1000 years) is stable, as 000 §6 says its runs are. The
+  e-folding time of cliffs growing backward, ≈ Δx/K_th, is 3.75 My on 30 m cells.
+- m/y: 0.008 would move 8 m per step, 6.5 km over 814 ka; Δx/(√2·K_th) is 177 years on 2 m cells
+  (2.8 years for 0.5), far below the paper's 1000-year step, and thermal unerosion of 30 m cells
+  e-folds every ≈ 4 ky, so the case studies diverge.
+- a fraction per ky of the cell's excess height Δx·(|∇h| − tan θ) (the cellular automaton's
+  "proportion", 000 §4.1): it puts a Δx in the erosion term of 000 Eq. 15 that the equation
+  does not have, and makes the rate depend on the resolution (30 × m/ky on 30 m cells).
+
+000 Fig. 3, 6, 9 and 10 give no metres; Fig. 4 and 6 run 200 iterations of 1000 years, Fig. 9
+100 ky. With m/y and 0.008 a cliff one unit above tan θ would lose 1.6 km in 200 iterations,
+more than the relief of the terrains shown, which keep their shape; with m/ky it loses 1.6 m, and
+Table 2's upper range (0.5 m/ky: 100 m) makes the cliff retreat visible in such figures.
+
+On the 256 × 256 sample valley (30 m cells, relief 2087 m) along LR04 with the 000 Table 1
+schedule, unerosion with ``thermal,fluvial`` read as m/y diverged (cells 10 km off) at 256 ka
+(Tautavel, Δt 1 ky) and 156 ka (Têt, Δt 2 ky); read as m/ky it reaches 814 ka, and thermal
+unerosion alone moves cells by at most 130 m over 814 ka (mean 6.9 m) and 221 m over 3 Ma.
 
 The numba kernels are imported on first use (``PARAMETERS`` is read for the CLI help).
 """
@@ -38,10 +63,10 @@ if TYPE_CHECKING:
 
 K_TH = ParamSpec(
     "k_th",
-    "m/y",
+    "m/ky",
     0.002,
-    "thermal erodibility K_th: lowering rate per unit of slope above the talus slope "
-    "(000 Eq. 14; 000 §5.2: 0.002 interglacial, 0.008 glacial)",
+    "thermal erodibility K_th: lowering per 1000 years per unit of slope above the talus slope "
+    "(000 Eq. 14; Table 2: (1000 years)⁻¹; 000 §5.2: 0.002 interglacial, 0.008 glacial)",
     minimum=0.0,
     raster=True,
     symbol="K_th",
@@ -67,6 +92,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
 )
 _SPECS = {spec.name: spec for spec in PARAMETERS}
 
+#: Years in the ky of K_th's unit (m/ky): the kernels take K_th / YEARS_PER_KY in m/y.
+YEARS_PER_KY = 1000.0
+
 #: Names of the un-deposition constraints of backward steps (000 §4.2).
 CONSTRAINTS: tuple[str, ...] = ("slope", "convexity", "rate")
 
@@ -76,7 +104,7 @@ class ThermalParams:
     """Parameters of 000 Eq. 14–17.
 
     Attributes:
-        k_th: K_th (m/y), scalar or float[ny, nx].
+        k_th: K_th (m/ky), scalar or float[ny, nx].
         talus_angle: θ (degrees).
         alpha: α of 000 Eq. 16 (dimensionless).
         max_undeposition: maximal un-deposition rate (m/y).
@@ -109,6 +137,11 @@ class ThermalChange:
     dh: np.ndarray
     rock_flux: np.ndarray
     budget: MassBudget
+
+
+def per_year(k_th: float | np.ndarray) -> float | np.ndarray:
+    """K_th in m/ky (the unit users give, 000 Table 2) → m/y (the unit of the kernels' dt)."""
+    return k_th / YEARS_PER_KY
 
 
 def constraint_flags(names: Iterable[str]) -> int:
@@ -165,7 +198,7 @@ def step(
     slope, down = _slopes(h, grid, dt, scheme)
     dh, rock, removed, added, outflow = tk.thermal_sweep(
         routing.filled, h, grid.valid, routing.outlets, routing.order, grid.dx, grid.dy,
-        routing.single, slope, down, flat_field(params.k_th, grid.shape, "k_th"),
+        routing.single, slope, down, flat_field(per_year(params.k_th), grid.shape, "k_th"),
         params.tan_theta, float(dt), float(params.alpha), float(params.max_undeposition), flags,
     )
     budget = MassBudget(removed, added, dt * outflow)
@@ -188,8 +221,8 @@ def max_stable_dt(elevation: np.ndarray, grid: Grid, params: ThermalParams, outl
                   dt_sign: float = 1.0, scheme: str = "limiter", courant: float = 1.0) -> float:
     """Largest |dt| (y) for which the explicit erosion term of 000 Eq. 14 is stable (CFL).
 
-    The term moves elevation changes upslope at the speed K_th (m/y), so
-    |dt| ≤ courant / (max K_th · sqrt(1/dx² + 1/dy²)) over the cells steeper than tan θ (with
+    The term moves elevation changes upslope at the speed K_th / 1000 (m/y, K_th in m/ky), so
+    |dt| ≤ courant / (max K_th/1000 · sqrt(1/dx² + 1/dy²)) over the cells steeper than tan θ (with
     the slope of a step of sign ``dt_sign``); ``inf`` when no cell is. Deposition does not
     restrict the step: it is capped by the slope.
     """
@@ -200,7 +233,7 @@ def max_stable_dt(elevation: np.ndarray, grid: Grid, params: ThermalParams, outl
     h = np.ascontiguousarray(elevation, dtype=np.float64)
     slope, _ = _slopes(h, grid, dt_sign, scheme)
     free = (grid.valid & ~outlets).ravel()
-    speed = tk.max_speed(slope, free, flat_field(params.k_th, grid.shape, "k_th"),
+    speed = tk.max_speed(slope, free, flat_field(per_year(params.k_th), grid.shape, "k_th"),
                          params.tan_theta)
     if speed == 0.0:
         return float("inf")

@@ -2,10 +2,11 @@
 with the flow-following thermal model of 000 §4 (000 Fig. 3).
 
 Each cell hands material to the neighbours it overhangs by more than the talus height
-tan θ·distance. To share K_th and θ with ``thermal``, one step of dt years moves
-dt·K_th/Δx times the largest excess height difference, Δx = min(dx, dy): on a uniform slope
-S > tan θ that is dt·K_th·(S − tan θ) metres, the lowering of 000 Eq. 14. The automaton is
-stable while that fraction is ≤ 1/2, i.e. |dt| ≤ Δx / (2·K_th). It has no backward form.
+tan θ·distance. To share K_th (m/ky, see ``thermal``) and θ with ``thermal``, one step of dt
+years moves dt·k/Δx times the largest excess height difference, with k = K_th/1000 (m/y) and
+Δx = min(dx, dy): on a uniform slope S > tan θ that is dt·k·(S − tan θ) metres, the lowering of
+000 Eq. 14. The automaton is stable while that fraction is ≤ 1/2, i.e. |dt| ≤ Δx / (2·k). It has
+no backward form.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 from unerode_cli.grid import Grid
 from unerode_cli.processes.budget import MassBudget, SurfaceChange
 from unerode_cli.processes.parameters import ParamSpec, check_fields
-from unerode_cli.processes.thermal import K_TH, TALUS_ANGLE
+from unerode_cli.processes.thermal import K_TH, TALUS_ANGLE, per_year
 
 PARAMETERS: tuple[ParamSpec, ...] = (K_TH, TALUS_ANGLE)
 
@@ -30,7 +31,7 @@ MAX_FRACTION = 0.5
 
 @dataclass(frozen=True)
 class ThermalCAParams:
-    """K_th (m/y, scalar or float[ny, nx]) and the talus angle θ (degrees)."""
+    """K_th (m/ky, scalar or float[ny, nx]) and the talus angle θ (degrees)."""
 
     k_th: float | np.ndarray = K_TH.default
     talus_angle: float = TALUS_ANGLE.default
@@ -40,9 +41,10 @@ class ThermalCAParams:
 
 
 def max_stable_dt(grid: Grid, params: ThermalCAParams) -> float:
-    """Largest |dt| (y) with a moved fraction ≤ 1/2: Δx / (2·max K_th); ``inf`` for K_th = 0."""
-    k_max = float(np.max(np.asarray(params.k_th)[grid.valid] if np.ndim(params.k_th)
-                         else params.k_th))
+    """Largest |dt| (y) with a moved fraction ≤ 1/2: Δx / (2·max K_th/1000) (K_th in m/ky);
+    ``inf`` for K_th = 0."""
+    k_max = float(per_year(np.max(np.asarray(params.k_th)[grid.valid] if np.ndim(params.k_th)
+                                  else params.k_th)))
     return float("inf") if k_max == 0.0 else MAX_FRACTION * min(grid.dx, grid.dy) / k_max
 
 
@@ -66,8 +68,8 @@ def step(elevation: np.ndarray, grid: Grid, fixed: np.ndarray, params: ThermalCA
     if dt > max_stable_dt(grid, params) * (1.0 + 1e-12):
         raise ValueError(f"thermal-ca step of {dt:g} years is above its stable limit "
                          f"{max_stable_dt(grid, params):.4g} years")
-    k_th = np.asarray(params.k_th, dtype=np.float64)
-    fraction = np.ascontiguousarray(dt * k_th / min(grid.dx, grid.dy)).ravel()
+    k = per_year(np.asarray(params.k_th, dtype=np.float64))
+    fraction = np.ascontiguousarray(dt * k / min(grid.dx, grid.dy)).ravel()
     h = np.ascontiguousarray(elevation, dtype=np.float64)
     fixed = np.ascontiguousarray(fixed & grid.valid)
     tan_theta = float(np.tan(np.radians(params.talus_angle)))

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from unerode_cli.errors import InputError
+from unerode_cli.io.inflow_files import read_inflow
 from unerode_cli.io.parameter_file import read_parameter_file
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.processes import debris, fluvial, hillslope, thermal, thermal_ca
@@ -47,7 +48,7 @@ class Surface:
 
 
 def _change(dh: np.ndarray, budget: MassBudget) -> Change:
-    return Change(dh, budget.eroded, budget.deposited, budget.outflux)
+    return Change(dh, budget.eroded, budget.deposited, budget.outflux, budget.inflow)
 
 
 @dataclass
@@ -57,11 +58,13 @@ class FluvialProcess:
     The stability check computes the step itself and reads the CFL bound off its discharge;
     the step is kept, so that ``advance`` with the same elevation and dt (no sub-steps, the
     usual case) costs nothing more. A step that needs sub-steps wastes that one step.
+    ``inflow``: rivers entering the map (000 §6.3.1), or None.
     """
 
     surface: Surface
     params: fluvial.FluvialParams
     scheme: str = "limiter"
+    inflow: fluvial.Inflow | None = None
     name: str = "fluvial"
     _last: tuple[Any, float, fluvial.FluvialChange] | None = field(default=None, repr=False)
 
@@ -73,7 +76,7 @@ class FluvialProcess:
         if last is not None and last[0] is routing and last[1] == dt:
             return routing, last[2]
         change = fluvial.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
-                              dt, routing=routing, scheme=self.scheme)
+                              dt, routing=routing, scheme=self.scheme, inflow=self.inflow)
         self._last = (routing, dt, change)
         return routing, change
 
@@ -178,7 +181,8 @@ REGISTRY: dict[str, Registered] = {
         fluvial.PARAMETERS,
         lambda t, b, v, o: FluvialProcess(
             _surface(t, b, o.get("method", "mfd")),
-            fluvial.FluvialParams(**_values(fluvial.PARAMETERS, v)), o.get("scheme", "limiter")),
+            fluvial.FluvialParams(**_values(fluvial.PARAMETERS, v)), o.get("scheme", "limiter"),
+            o.get("inflow")),
         "fluvial erosion with sediment deposition (000 §3)",
     ),
     "thermal": Registered(
@@ -257,6 +261,18 @@ def given_values(params_file: Path | None, parameter_values: dict[str, str | Non
         values.update(read_parameter_file(params_file, declared))
     values.update({k: v for k, v in parameter_values.items() if v is not None})
     return values
+
+
+def inflow_for(path: Path | None, names: list[str], terrain: Terrain,
+               boundaries: Boundaries) -> fluvial.Inflow | None:
+    """``--inflow FILE`` read on the terrain's grid (None without it), refused when the run has
+    no fluvial process or a river enters on an outlet of the start elevation."""
+    if path is None:
+        return None
+    if "fluvial" not in names:
+        raise InputError("--inflow brings water and sediment to the fluvial process; add fluvial to "
+                         "--process.")
+    return read_inflow(path, terrain, boundaries.outlets(terrain.elevation, terrain))
 
 
 def thermal_constraints(text: str) -> tuple[str, ...]:

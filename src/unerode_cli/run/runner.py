@@ -23,21 +23,24 @@ MAX_SUBSTEPS = 100_000
 
 @dataclass
 class Budget:
-    """Volumes (m³) moved by a process over a run: eroded, deposited, left through outlets."""
+    """Volumes (m³) moved by a process over a run: eroded, deposited, left through outlets,
+    and brought in from upstream of the map (inflow)."""
 
     eroded: float = 0.0
     deposited: float = 0.0
     outflux: float = 0.0
+    inflow: float = 0.0
 
-    def add(self, eroded: float, deposited: float, outflux: float) -> None:
+    def add(self, eroded: float, deposited: float, outflux: float, inflow: float = 0.0) -> None:
         self.eroded += eroded
         self.deposited += deposited
         self.outflux += outflux
+        self.inflow += inflow
 
     @property
     def residual(self) -> float:
-        """eroded − deposited − outflux (m³); zero for a mass-conserving process."""
-        return self.eroded - self.deposited - self.outflux
+        """eroded + inflow − deposited − outflux (m³); zero for a mass-conserving process."""
+        return self.eroded + self.inflow - self.deposited - self.outflux
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,7 @@ class Change:
     eroded: float
     deposited: float
     outflux: float
+    inflow: float = 0.0
 
 
 class Process(Protocol):
@@ -127,7 +131,8 @@ def run(
             for _ in range(n_sub):
                 change = process.advance(h, dt / n_sub)
                 h += change.dh
-                report.budgets[process.name].add(change.eroded, change.deposited, change.outflux)
+                report.budgets[process.name].add(change.eroded, change.deposited, change.outflux,
+                                                 change.inflow)
             report.substeps[process.name] += n_sub
         report.steps = i
         report.elapsed_years = i * dt
