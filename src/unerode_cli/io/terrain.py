@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -42,9 +43,10 @@ class Terrain:
     def shape(self) -> tuple[int, int]:
         return self.elevation.shape  # type: ignore[return-value]
 
-    @property
+    @cached_property
     def grid(self) -> Grid:
-        """The computational grid (cell sizes and domain mask)."""
+        """The computational grid (cell sizes and domain mask), built once: a Terrain's
+        elevation is never changed in place (``with_elevation`` makes a new Terrain)."""
         return Grid(self.dx, self.dy, np.isfinite(self.elevation))
 
     def check_valid(self, source: Path | str) -> None:

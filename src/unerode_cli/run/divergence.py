@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from unerode_cli.errors import RunFailure
@@ -37,6 +38,7 @@ class DivergenceGuard:
     relief: float = field(init=False)
 
     def __post_init__(self) -> None:
+        self.reference = np.ascontiguousarray(self.reference, dtype=np.float64)
         self.inside = np.isfinite(self.reference)
         values = self.reference[self.inside]
         self.relief = float(values.max() - values.min()) if values.size else 0.0
@@ -48,15 +50,28 @@ class DivergenceGuard:
     def check(self, elevation: np.ndarray, elapsed_years: float, where: str) -> None:
         """Raise :class:`RunFailure` when ``elevation`` (m) has diverged; ``where`` says when
         (e.g. "in step 12 (t = 3000 y)")."""
-        values = elevation[self.inside]
-        if not np.isfinite(values).all():
+        finite, change = _largest_change(np.ascontiguousarray(elevation, dtype=np.float64).ravel(),
+                                         self.reference.ravel(), self.inside.ravel())
+        if not finite:
             raise RunFailure(f"the run diverged {where}: elevations became NaN or infinite; {self.hint}.")
-        change = float(np.max(np.abs(values - self.reference[self.inside]), initial=0.0))
         if change > self.allowed_change(elapsed_years):
             raise RunFailure(
                 f"the run diverged {where}: a cell moved by {change:.3g} m, more than {RELIEF_FACTOR:g} × "
                 f"the DEM's relief of {self.relief:.4g} m (+ {FLOOR_M:g} m and the uplift) allows; "
                 f"{self.hint}.")
+
+
+@numba.njit(cache=True)
+def _largest_change(elevation, reference, inside):
+    """(every inside cell finite, max |elevation − reference| over inside cells (m)) in one pass."""
+    largest = 0.0
+    for i in range(elevation.size):
+        if inside[i]:
+            value = elevation[i]
+            if not np.isfinite(value):
+                return False, np.inf
+            largest = max(largest, abs(value - reference[i]))
+    return True, largest
 
 
 def max_rate(rate: float | np.ndarray) -> float:
