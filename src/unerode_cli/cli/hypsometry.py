@@ -31,10 +31,11 @@ def hypsometry(
     """Distribution of elevations: share of the area per elevation bin, hypsometric integral
     HI = (mean − min)/(max − min) and hypsometric maximum (the fullest bin), printed per DEM."""
     with reported_errors(verbose - quiet):
-        from unerode_cli.jobs.hypsometry import compute, write
+        from unerode_cli.jobs.hypsometry import check_outputs, compute, write
 
+        check_outputs(dems, csv, plot, overwrite)
         results = compute(dems, bins, normalise.value)
-        write(results, csv, plot, overwrite)
+        write(results, csv, plot)
         typer.echo("dem\tmin_m\tmax_m\tmean_m\tmode_m\tHI")
         for dem, result in results:
             typer.echo(f"{dem.name}\t{result.minimum_m:.6g}\t{result.maximum_m:.6g}\t{result.mean_m:.6g}\t"

@@ -16,7 +16,7 @@ from rasterio.crs import CRS as RioCRS
 from rasterio.errors import RasterioIOError
 
 from unerode_cli.errors import InputError
-from unerode_cli.io.gdal_io import COG_DEFAULTS, GTIFF_DEFAULTS, WriteOptions
+from unerode_cli.io.gdal_io import WriteOptions, output_format
 from unerode_cli.io.paths import atomic_path
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
@@ -98,12 +98,11 @@ def write_bands(values: np.ndarray, terrain: Terrain, path: Path, options: Write
         inside = values[:, ~mask].astype(dtype)
         nodata = float("nan") if np.any(inside == np.asarray(-9999.0, dtype)) else -9999.0
     data = np.where(mask[None], np.nan if nodata is None else nodata, values).astype(dtype)
-    driver = "COG" if options.cog else "GTiff"
-    profile = {"driver": driver, "height": terrain.shape[0], "width": terrain.shape[1],
+    fmt = output_format(path, options.cog)
+    profile = {"driver": fmt.driver, "height": terrain.shape[0], "width": terrain.shape[1],
                "count": values.shape[0], "dtype": dtype, "transform": terrain.transform,
                "crs": RioCRS.from_wkt(terrain.crs_wkt) if terrain.crs_wkt else None, "nodata": nodata,
-               **(COG_DEFAULTS if options.cog else GTIFF_DEFAULTS),
-               **options.creation_options}
+               **fmt.defaults, **options.creation_options}
     with atomic_path(path) as tmp:
         try:
             with rasterio.open(tmp, "w", **profile) as dst:

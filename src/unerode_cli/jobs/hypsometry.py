@@ -26,14 +26,17 @@ def compute(dems: list[Path], bins: int, normalise: str) -> list[tuple[Path, Hyp
     return results
 
 
-def write(results: list[tuple[Path, Hypsometry]], csv_path: Path | None, plot: Path | None,
-          overwrite: bool) -> None:
-    """Write the long-form CSV (one row per DEM and bin) and the plot, atomically."""
-    inputs = tuple(dem for dem, _ in results)
+def check_outputs(dems: list[Path], csv_path: Path | None, plot: Path | None, overwrite: bool) -> None:
+    """Clear the CSV and the plot before any DEM is read."""
     if csv_path is not None:
-        check_output(csv_path, overwrite, inputs)
+        check_output(csv_path, overwrite, tuple(dems))
     if plot is not None:
-        check_png(plot, overwrite, inputs)
+        check_png(plot, overwrite, tuple(dems))
+
+
+def write(results: list[tuple[Path, Hypsometry]], csv_path: Path | None, plot: Path | None) -> None:
+    """Write the long-form CSV (one row per DEM and bin) and the plot (cleared by
+    :func:`check_outputs`), atomically."""
     if csv_path is not None:
         rows = [dict(zip(CSV_COLUMNS, (dem.name, k, result.edges[k], result.edges[k + 1], result.centres[k],
                                         fraction, result.area_above[k]), strict=True))
