@@ -44,7 +44,8 @@ def test_an_inland_dem_keeps_its_edges_through_the_glacial_maximum(tmp_path: Pat
         in result.stderr
     statistics = json.loads((tmp_path / "past.tif.json").read_text())["statistics"]
     assert statistics["boundaries"] == {"sea_cells": 0, "coast_edge_cells": 0, "fixed_edge_cells": 88,
-                                        "uplift_edge_cells": 0, "table_edge_cells": 0}
+                                        "uplift_edge_cells": 0, "table_edge_cells": 0,
+                                        "coarse_edge_cells": 0}
 
 
 def test_a_coast_follows_sea_level_while_the_other_edges_rise_with_the_uplift(tmp_path: Path,

@@ -58,7 +58,9 @@ def test_sidecar_budget_closes_with_the_inflow(tmp_path: Path, ramp: Path, comma
      "line 3: the point (500315, 4999655) snaps to the cell at row 11, column 10, more than one cell"),
     (("499990,4999955,1,1",), HEADER, "line 2: the point (499990, 4999955) is outside the map"),
     ((f"{ENTRY},1,-1",), HEADER, "line 2: sediment_m3_per_y must be ≥ 0"),
-    ((f"{ENTRY},1,1,12",), HEADER + ",age_ka", "line 2: an inflow through time"),
+    ((f"{ENTRY},1,1,12", f"{ENTRY},2,1,20"), HEADER + ",age_ka", "an inflow through time needs climate-run"),
+    ((f"{ENTRY},1,1,12", f"{ENTRY},2,1,12"), HEADER + ",age_ka", "line 3: the river at"),
+    ((f"{ENTRY},1,1,",), HEADER + ",age_ka", "line 2: age_ka is empty"),
     (("500315,4999985,1,1",), HEADER,
      "line 2: the point (500315, 4999985) snaps to the cell at row 0, column 10, an outlet"),
 ])
@@ -76,7 +78,7 @@ def test_a_point_on_nodata_snaps_to_the_nearest_valid_cell(tmp_path: Path, ramp:
     terrain.elevation[8:14, 6:12] = np.nan  # a nodata hole inside the map
     # two rivers: in the hole, near its east side (row 10, column 11), and beside it
     table = inflow_file(tmp_path, "500340,4999685,1e6,10", "500375,4999685,2e6,5")
-    inflow = read_inflow(table, terrain, np.zeros(terrain.shape, dtype=bool))
+    inflow = read_inflow(table, terrain, np.zeros(terrain.shape, dtype=bool)).at()
     assert np.argwhere(inflow.discharge > 0).tolist() == [[10, 12]]
     assert inflow.discharge[10, 12] == 3e6 and inflow.sediment[10, 12] == 15.0
 

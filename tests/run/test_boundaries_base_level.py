@@ -43,7 +43,8 @@ def test_an_inland_dem_keeps_every_edge_whatever_the_sea_does() -> None:
     levels, h = levels_after(terrain, -120.0)
     assert np.array_equal(h, terrain.elevation)
     assert levels.counts() == {"sea_cells": 0, "coast_edge_cells": 0, "fixed_edge_cells": 24,
-                               "uplift_edge_cells": 0, "table_edge_cells": 0}
+                               "uplift_edge_cells": 0, "table_edge_cells": 0,
+                               "coarse_edge_cells": 0}
     assert levels.summary() == \
         "0 coast-edge and 0 sea cells follow sea level, 24 edge cells keep their elevation"
 

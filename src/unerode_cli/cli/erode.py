@@ -44,7 +44,7 @@ PARAMETER_PANELS = {
     "Hillslope parameters (001 §6.4)": hillslope.PARAMETERS,
     "Debris-flow parameters (001 Eq. 8)": debris.PARAMETERS,
 }
-Inflow = Annotated[Path | None, typer.Option("--inflow", help="CSV of rivers entering the map, columns x,y,discharge_m3_per_y,sediment_m3_per_y (DEM's CRS; m³/y): each point is snapped to the nearest valid cell, within one cell of the edge or of nodata and not an outlet, where its water joins the discharge and its sediment the fluvial sediment flux.", rich_help_panel=BOUNDARY_PANEL)]
+Inflow = Annotated[Path | None, typer.Option("--inflow", help="CSV of rivers entering the map, columns x,y,discharge_m3_per_y,sediment_m3_per_y (DEM's CRS; m³/y): each point is snapped to the nearest valid cell, within one cell of the edge or of nodata and not an outlet, where its water joins the discharge and its sediment the fluvial sediment flux. climate-run also takes an age_ka column: each river's rows at several ages, linear in age.", rich_help_panel=BOUNDARY_PANEL)]
 PROCESS_HELP = ("Process(es), comma-separated, applied in this order within each step (operator "
                 "splitting): fluvial, thermal, thermal-ca (forward only), hillslope (forward only), "
                 "debris (forward only).")

@@ -12,6 +12,7 @@ on the coast, so that after each step they follow it exactly.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import time
@@ -31,16 +32,18 @@ from unerode_cli.climate.uplift import FACTOR_COLUMN, RATE_COLUMN, UpliftHistory
 from unerode_cli.errors import InputError
 from unerode_cli.io.checkpoints import read_checkpoint, write_checkpoint
 from unerode_cli.io.chronology_files import read_age_table, read_series
+from unerode_cli.io.coarse_runs import check_fluxes_folder, fluxes_folder, read_coarse_run, write_state
 from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.grid_rasters import load_on_grid
 from unerode_cli.io.paths import atomic_path, check_output, file_sha256
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.yaml_files import read_yaml_mapping
-from unerode_cli.processes.fluvial import Inflow
+from unerode_cli.processes.inflow import InflowHistory
 from unerode_cli.processes.parameters import UPLIFT
-from unerode_cli.run.boundaries import BaseLevels, base_levels_from_options, edge_base_table
+from unerode_cli.run.boundaries import COARSE, BaseLevels, base_levels_from_options, edge_base_table
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
+from unerode_cli.run.nesting import Nesting, nest
 from unerode_cli.run.outputs import (
     AGE_TAG,
     PHASE_TAG,
@@ -56,7 +59,7 @@ from unerode_cli.run.registry import (
     REGISTRY,
     build_processes,
     given_values,
-    inflow_for,
+    inflow_history_for,
     parse_process_list,
     thermal_constraints,
 )
@@ -89,7 +92,7 @@ class ClimateJob:
     dirichlet: Path | None = None
     sea_outlets: bool = True
     coast: str = "none"
-    edge_base: str = "fixed"
+    edge_base: str | None = None
     checkpoint_every: int = 10
     resume: bool = False
     max_steps: int | None = None
@@ -104,11 +107,25 @@ class ClimateJob:
     preview: Path | None = None
     uplift_map: Path | None = None
     inflow: Path | None = None
+    inflow_from: Path | None = None
+    write_fluxes: bool = False
     parameter_values: dict[str, str | None] = field(default_factory=dict)
 
     @property
     def backward(self) -> bool:
         return self.to_ka > self.from_ka
+
+    @property
+    def edge_base_choice(self) -> str:
+        """``--edge-base``, by default "coarse" for a nested run (``--inflow-from``), else "fixed"."""
+        if self.edge_base is not None:
+            return self.edge_base
+        return COARSE if self.inflow_from is not None else "fixed"
+
+    def kept_ages(self) -> list[float]:
+        """Ages (ka) of the nesting rasters of ``--write-fluxes``: the start, the snapshots and
+        the end."""
+        return sorted({self.from_ka, *self.snapshots_ka, self.to_ka})
 
 
 @dataclass
@@ -138,7 +155,8 @@ class PreparedClimateRun:
     chronology: Series
     fingerprint: str
     uplift: UpliftHistory | None = None
-    inflow: Inflow | None = None
+    inflow: InflowHistory | None = None
+    nesting: Nesting | None = None
 
 
 def timeline_path(output: Path) -> Path:
@@ -205,6 +223,11 @@ def _forcing(job: ClimateJob, steps: int, chronology: Series, sea: Series | None
     return Forcing(end, mid, np.asarray(phases_on_grid)[pick], sea_mid, sea_end, sea_start)
 
 
+def fluxes_path(output: Path) -> Path:
+    """The folder of the nesting rasters of ``--write-fluxes``."""
+    return fluxes_folder(output)
+
+
 def _fingerprint(job: ClimateJob) -> str:
     """Hash of everything that decides the result (inputs' content included), to refuse a
     --resume from a checkpoint of another run."""
@@ -213,8 +236,8 @@ def _fingerprint(job: ClimateJob) -> str:
         fields.pop(key)
     digest = hashlib.sha256(json.dumps(fields, sort_keys=True, default=str).encode())
     for path in (job.source, job.chronology, job.sea_level_file, job.schedule_file,
-                 job.downstream_mask, job.dirichlet, edge_base_table(job.edge_base), job.uplift_map,
-                 job.inflow, *_parameter_files(job)):
+                 job.downstream_mask, job.dirichlet, edge_base_table(job.edge_base_choice),
+                 job.uplift_map, job.inflow, *_parameter_files(job), *_coarse_files(job)):
         if path is not None:
             digest.update(file_sha256(Path(path)).encode())
     digest.update(__version__.encode())
@@ -240,6 +263,9 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
     for path in [snapshot_path(job.output, a) for a in job.snapshots_ka]:
         check_raster(path, outputs.options, replace, (job.source,))
     check_output(timeline_path(job.output), replace, (job.source,))
+    _check_nesting_options(job, names)
+    if job.write_fluxes:
+        check_fluxes_folder(fluxes_path(job.output), job.kept_ages(), replace)
     check_png(chronology_png_path(job.output), replace, (job.source,))
     if job.checkpoint_every < 1:
         raise InputError("--checkpoint-every must be at least 1 step.")
@@ -266,17 +292,53 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
     _check_scalable(job, schedule, base)
     uplift = _uplift_history(job, table, terrain, schedule)
     base_levels = base_levels_from_options(
-        terrain, job.outlets, job.dirichlet, job.coast, job.edge_base,
+        terrain, job.outlets, job.dirichlet, job.coast, job.edge_base_choice,
         forcing.sea_start if job.sea_outlets else None, (job.from_ka, job.to_ka))
     downstream = None
     if job.downstream_mask is not None or job.downstream_below is not None:
         mask = (load_on_grid(job.downstream_mask, terrain, "downstream mask") != 0
                 if job.downstream_mask else None)
         downstream = downstream_mask(terrain.elevation, job.downstream_below, mask)
-    inflow = inflow_for(job.inflow, names, terrain,
-                        base_levels.boundaries(forcing.sea_start if job.sea_outlets else None))
+    start_outlets = base_levels.boundaries(forcing.sea_start if job.sea_outlets else None)
+    inflow = inflow_history_for(job.inflow, names, terrain, start_outlets)
+    nesting = None
+    if job.inflow_from is not None:
+        nodes = base_levels.edge if base_levels.edge_base == COARSE else np.zeros(terrain.shape, bool)
+        nesting = nest(read_coarse_run(job.inflow_from), terrain,
+                       start_outlets.outlets(terrain.elevation, terrain), nodes,
+                       (job.from_ka, job.to_ka))
+        inflow = nesting.inflow
+        if base_levels.edge_base == COARSE:
+            base_levels = dataclasses.replace(base_levels, node_levels=nesting.levels)
+    elif inflow is not None and not (inflow.covers(job.from_ka) and inflow.covers(job.to_ka)):
+        raise InputError(f"the inflow table {job.inflow} covers {inflow.span_ka[0]:g}–"
+                         f"{inflow.span_ka[1]:g} ka, not the whole run from {job.from_ka:g} to "
+                         f"{job.to_ka:g} ka.")
     return PreparedClimateRun(job, terrain, names, base, schedule, forcing, base_levels, downstream,
-                              steps, outputs, chronology, _fingerprint(job), uplift, inflow)
+                              steps, outputs, chronology, _fingerprint(job), uplift, inflow, nesting)
+
+
+def _check_nesting_options(job: ClimateJob, names: list[str]) -> None:
+    """Refuse, before any work, nesting options that do not go together."""
+    if job.inflow is not None and job.inflow_from is not None:
+        raise InputError("give the inflow either as a table (--inflow) or from a coarse run "
+                         "(--inflow-from), not both.")
+    if job.edge_base == COARSE and job.inflow_from is None:
+        raise InputError("--edge-base coarse follows the surface of a coarse run: give it with "
+                         "--inflow-from.")
+    for option, given in (("--inflow-from", job.inflow_from is not None),
+                          ("--write-fluxes", job.write_fluxes)):
+        if given and "fluvial" not in names:
+            raise InputError(f"{option} concerns the water and sediment of the fluvial process; add "
+                             "fluvial to --process.")
+
+
+def _coarse_files(job: ClimateJob) -> list[Path]:
+    """The nesting rasters of ``--inflow-from``, for the fingerprint."""
+    if job.inflow_from is None:
+        return []
+    folder = job.inflow_from if job.inflow_from.is_dir() else fluxes_folder(job.inflow_from)
+    return sorted(folder.glob("*.tif")) if folder.is_dir() else []
 
 
 def _parameter_files(job: ClimateJob) -> list[Path]:
@@ -370,11 +432,13 @@ def _domain_mean(value: float | np.ndarray, terrain: Terrain) -> float:
     return float(np.mean(np.asarray(value)[~terrain.nodata_mask]))
 
 
-def _processes(prepared: PreparedClimateRun, values: dict[str, Any], sea_end: float) -> list:
+def _processes(prepared: PreparedClimateRun, values: dict[str, Any], sea_end: float,
+               mid_ka: float) -> list:
     job = prepared.job
     bounds = prepared.base_levels.boundaries(sea_end if job.sea_outlets else None)
+    inflow = None if prepared.inflow is None else prepared.inflow.at(mid_ka)
     options = {"scheme": job.scheme, "method": job.method,
-               "constraints": thermal_constraints(job.constraints), "inflow": prepared.inflow}
+               "constraints": thermal_constraints(job.constraints), "inflow": inflow}
     return build_processes(prepared.names, prepared.terrain, bounds, values, options)
 
 
@@ -404,19 +468,21 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
         prepared.base_levels.set_levels(h, terrain.elevation, sea_end - forcing.sea_start,
                                         float(forcing.end_ka[k]), values.get("uplift", 0.0), signed_dt)
         before = h.copy()
-        h, report = run(h, _processes(prepared, values, sea_end), signed_dt, 1,
-                        job.allow_substeps, None, note_once)
+        processes = _processes(prepared, values, sea_end, float(forcing.mid_ka[k]))
+        h, report = run(h, processes, signed_dt, 1, job.allow_substeps, None, note_once)
         guard.check(h, (k + 1) * signed_dt, f"at {forcing.end_ka[k]:g} ka")
         change = np.abs(h - before)[~terrain.nodata_mask]
         rows.append({"age_ka": float(forcing.end_ka[k]), "phase": str(forcing.phase[k]),
                      "sea_level_m": sea_end, **scheduled,
                      "eroded_m3": sum(b.eroded for b in report.budgets.values()),
                      "deposited_m3": sum(b.deposited for b in report.budgets.values()),
-                     **({"inflow_m3": sum(b.inflow for b in report.budgets.values())}
-                        if job.inflow else {}),
+                     **(_inflow_columns(prepared, report, float(forcing.mid_ka[k]))
+                        if prepared.inflow is not None else {}),
                      "mean_abs_dh_m": float(change.mean()), "max_abs_dh_m": float(change.max())})
         if round(float(forcing.end_ka[k]), 9) in snapshots:
             _save_state(prepared, h, k, snapshot_path(job.output, float(forcing.end_ka[k])))
+        if job.write_fluxes:
+            _write_fluxes(prepared, processes, k, before, h, snapshots)
         if (k + 1) % job.checkpoint_every == 0 or k + 1 == last:
             _checkpoint(prepared, h, k + 1, rows)
         if on_step is not None:
@@ -435,8 +501,35 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
     checkpoint_path(job.output).unlink(missing_ok=True)
     return (f"{COMMAND}: {prepared.steps} steps of {job.dt:g} y from {job.from_ka:g} to "
             f"{job.to_ka:g} ka; wrote {job.output}, {timeline_path(job.output).name}, "
-            f"{chronology_png_path(job.output).name} and {len(job.snapshots_ka)} snapshot(s); "
-            f"{prepared.base_levels.summary()}")
+            f"{chronology_png_path(job.output).name} and {len(job.snapshots_ka)} snapshot(s)"
+            + (f", and the nesting rasters in {fluxes_path(job.output).name}/" if job.write_fluxes else "")
+            + f"; {prepared.base_levels.summary()}"
+            + (f"; {prepared.nesting.summary()}" if prepared.nesting is not None else ""))
+
+
+def _inflow_columns(prepared: PreparedClimateRun, report: Any, mid_ka: float) -> dict[str, float]:
+    """Timeline columns of a run with inflow: the sediment volume brought in over the step (m³,
+    negative backward) and the water discharge entering (m³/y, at the step's middle age)."""
+    return {"inflow_m3": sum(b.inflow for b in report.budgets.values()),
+            "inflow_discharge_m3_per_y": float(prepared.inflow.at(mid_ka).discharge.sum())}
+
+
+def _write_fluxes(prepared: PreparedClimateRun, processes: list, k: int, before: np.ndarray,
+                  h: np.ndarray, snapshots: set[float]) -> None:
+    """The nesting rasters after step k: at the start age with the first step's Q and Q_s
+    (computed on the input DEM), and at each snapshot age and the end with those of the step
+    that ends there (computed on the surface one step earlier)."""
+    job, forcing = prepared.job, prepared.forcing
+    fluvial = next(p for p in processes if p.name == "fluvial")
+    discharge, sediment_flux = fluvial.last_fluxes()
+    folder = fluxes_path(job.output)
+    end = float(forcing.end_ka[k])
+    if k == 0:
+        write_state(folder, prepared.terrain.with_elevation(before), job.from_ka, discharge,
+                    sediment_flux, {AGE_TAG: repr(job.from_ka), SEA_TAG: repr(forcing.sea_start)})
+    if round(end, 9) in snapshots or k + 1 == prepared.steps:
+        write_state(folder, prepared.terrain.with_elevation(h), end, discharge, sediment_flux,
+                    {AGE_TAG: repr(end), SEA_TAG: repr(float(forcing.sea_end[k]))})
 
 
 def _start_state(prepared: PreparedClimateRun, on_note) -> tuple[np.ndarray, int, list[dict]]:
@@ -483,7 +576,7 @@ def _save_state(prepared: PreparedClimateRun, h: np.ndarray, k: int, path: Path,
                            "eroded_m3": float(sum(r["eroded_m3"] for r in rows)),
                            "deposited_m3": float(sum(r["deposited_m3"] for r in rows)),
                            **({"inflow_m3": float(sum(r["inflow_m3"] for r in rows))}
-                              if job.inflow else {}),
+                              if prepared.inflow is not None else {}),
                            "snapshots": [str(snapshot_path(job.output, a))
                                          for a in job.snapshots_ka]})
     save(state, outputs, COMMAND, _provenance(job), statistics)

@@ -14,9 +14,12 @@ from unerode_cli.hydro.outlets import outlet_mask
 from unerode_cli.io.chronology_files import read_age_table
 from unerode_cli.io.grid_rasters import load_on_grid
 from unerode_cli.io.terrain import Terrain
+from unerode_cli.run.nesting import NodeLevels
 
 #: What a boundary node that is not sea can follow (``--edge-base``), besides a table file.
 EDGE_BASES = ("fixed", "uplift")
+#: ``--edge-base`` of a nested run: follow the surface of its coarse run (``--inflow-from``).
+COARSE = "coarse"
 
 
 @dataclass(frozen=True)
@@ -79,9 +82,10 @@ class BaseLevels:
         coast: bool[ny, nx] cells of the coast edges (``--coast``).
         sea: bool[ny, nx] the other boundary nodes at or below the start's sea level.
         edge: bool[ny, nx] the remaining boundary nodes.
-        edge_base: "fixed", "uplift" or "table".
+        edge_base: "fixed", "uplift", "table" or "coarse".
         table: the base level (m) by age (ka) with "table", else None.
         start_ka: age of the input DEM (ka).
+        node_levels: with "coarse", the levels of the ``edge`` nodes (in row-major order) by age.
     """
 
     edges: str
@@ -91,6 +95,7 @@ class BaseLevels:
     edge_base: str = "fixed"
     table: Series | None = None
     start_ka: float = 0.0
+    node_levels: NodeLevels | None = None
 
     @property
     def nodes(self) -> np.ndarray:
@@ -118,19 +123,23 @@ class BaseLevels:
             h[self.edge] += np.broadcast_to(uplift, h.shape)[self.edge] * dt
         elif self.table is not None:
             h[self.edge] = start[self.edge] + (self.table.at(age_ka) - self.table.at(self.start_ka))
+        elif self.node_levels is not None:
+            h[self.edge] = start[self.edge] + (self.node_levels.at(age_ka)
+                                               - self.node_levels.at(self.start_ka))
 
     def counts(self) -> dict[str, int]:
         """Boundary nodes by what they follow, for the run's summary and sidecar."""
         edge = int(self.edge.sum())
         return {"sea_cells": int(self.sea.sum()), "coast_edge_cells": int(self.coast.sum()),
                 **{f"{kind}_edge_cells": edge if kind == self.edge_base else 0
-                   for kind in (*EDGE_BASES, "table")}}
+                   for kind in (*EDGE_BASES, "table", COARSE)}}
 
     def summary(self) -> str:
         """E.g. "16 coast-edge and 0 sea cells follow sea level, 74 edge cells keep their elevation"."""
         counts = self.counts()
         follow = {"fixed": "keep their elevation", "uplift": "rise with the uplift",
-                  "table": "follow the --edge-base table"}[self.edge_base]
+                  "table": "follow the --edge-base table",
+                  COARSE: "follow the coarse run's surface"}[self.edge_base]
         return (f"{counts['coast_edge_cells']} coast-edge and {counts['sea_cells']} sea cells follow "
                 f"sea level, {int(self.edge.sum())} edge cells {follow}")
 
@@ -148,8 +157,8 @@ def coast_cells(terrain: Terrain, coast: str) -> np.ndarray:
 
 
 def edge_base_table(edge_base: str) -> Path | None:
-    """The table file that ``--edge-base`` names (None for fixed and uplift)."""
-    return None if edge_base in EDGE_BASES else Path(edge_base)
+    """The table file that ``--edge-base`` names (None for fixed, uplift and coarse)."""
+    return None if edge_base in (*EDGE_BASES, COARSE) else Path(edge_base)
 
 
 def _read_edge_base(edge_base: str, span_ka: tuple[float, float]) -> Series | None:

@@ -17,6 +17,7 @@ from unerode_cli.io.parameter_file import read_parameter_file
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.processes import debris, fluvial, hillslope, thermal, thermal_ca
 from unerode_cli.processes.budget import MassBudget
+from unerode_cli.processes.inflow import InflowHistory
 from unerode_cli.processes.parameters import UPLIFT, ParamSpec
 from unerode_cli.run.boundaries import Boundaries
 from unerode_cli.run.runner import Change, Process
@@ -88,6 +89,14 @@ class FluvialProcess:
     def advance(self, elevation: np.ndarray, dt: float) -> Change:
         change = self._step(elevation, dt)[1]
         return _change(change.dh, change.budget)
+
+    def last_fluxes(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Discharge Q and sediment flux Q_s (m³/y, float64[ny, nx]) of the latest (sub-)step,
+        computed on the elevation at its start (000 Algorithm 1); None before any step."""
+        if self._last is None:
+            return None
+        change = self._last[2]
+        return change.discharge, change.sediment_flux
 
 
 @dataclass
@@ -263,8 +272,8 @@ def given_values(params_file: Path | None, parameter_values: dict[str, str | Non
     return values
 
 
-def inflow_for(path: Path | None, names: list[str], terrain: Terrain,
-               boundaries: Boundaries) -> fluvial.Inflow | None:
+def inflow_history_for(path: Path | None, names: list[str], terrain: Terrain,
+                       boundaries: Boundaries) -> InflowHistory | None:
     """``--inflow FILE`` read on the terrain's grid (None without it), refused when the run has
     no fluvial process or a river enters on an outlet of the start elevation."""
     if path is None:
@@ -273,6 +282,20 @@ def inflow_for(path: Path | None, names: list[str], terrain: Terrain,
         raise InputError("--inflow brings water and sediment to the fluvial process; add fluvial to "
                          "--process.")
     return read_inflow(path, terrain, boundaries.outlets(terrain.elevation, terrain))
+
+
+def inflow_for(path: Path | None, names: list[str], terrain: Terrain,
+               boundaries: Boundaries) -> fluvial.Inflow | None:
+    """A constant ``--inflow FILE`` (runs without ages: erode, unerode), as for
+    :func:`inflow_history_for`; an inflow table through time is refused."""
+    history = inflow_history_for(path, names, terrain, boundaries)
+    if history is None:
+        return None
+    if not history.constant:
+        raise InputError(f"the inflow file {path} changes through time ({history.ages_ka.size} ages); "
+                         "an inflow through time needs climate-run, erode and unerode take one "
+                         "row per river.")
+    return history.at()
 
 
 def thermal_constraints(text: str) -> tuple[str, ...]:
