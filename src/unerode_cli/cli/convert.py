@@ -44,7 +44,8 @@ def convert(
     optionally crop to a box and resample to another cell size."""
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import load
-        from unerode_cli.io.resampling import crop as crop_to, resample
+        from unerode_cli.io.resampling import crop as crop_to
+        from unerode_cli.io.resampling import resample
         from unerode_cli.run.outputs import Outputs, save
 
         outputs = Outputs.from_cli(output, dtype.value, cog, co, overwrite, preview)
