@@ -184,4 +184,6 @@ def test_thin_ice_on_steep_terrain_converges():
     solution = blatter.solve(bed, thickness, Grid.full(bed.shape, 30.0),
                              blatter.FlowParams(sliding_c=1e5), rtol=0.03, max_iter=1000)
     assert solution.converged and solution.residual <= 0.03
-    assert solution.iterations < 600  # 267 when written
+    # 267 when written; 706 since the sliding energy is integrated over the bed's area (a factor
+    # √(1 + |∇b|²) of up to 1.4 on these slopes); 212 with the default C = 2e4
+    assert solution.iterations < 900

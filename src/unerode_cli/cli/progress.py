@@ -50,3 +50,44 @@ def _step_lines(total: int, description: str, verbosity: int) -> Callable[[str],
         last = now
 
     return advance
+
+
+@contextlib.contextmanager
+def simulated_time_bar(total_years: float, description: str,
+                       verbosity: int) -> Iterator[Callable[[float, str], None]]:
+    """Yield ``advance(years, info)``, to be called after each step with the simulated years
+    done so far: a bar in simulated years with their rate (y/s) and the time left at that rate
+    on a terminal; with ``-v`` one line per step (years done, rate, time left and ``info``, e.g.
+    the solver's iterations and residual); nothing with ``-q`` or when stderr is not a terminal."""
+    if verbosity >= DETAIL:
+        start = time.perf_counter()
+
+        def line(years: float, info: str = "") -> None:
+            wall = time.perf_counter() - start
+            rate = years / wall if wall > 0 else 0.0
+            left = (total_years - years) / rate if rate > 0 else float("nan")
+            say(f"{description} {years:,.0f}/{total_years:,.0f} y ({rate:,.3g} y/s, {left:,.0f} s left)"
+                f"{': ' + info if info else ''}", verbosity, DETAIL)
+
+        yield line
+        return
+    if verbosity < NOTE or not sys.stderr.isatty():
+        yield lambda years, info="": None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    columns = (TextColumn("{task.description}"), BarColumn(),
+               TextColumn("{task.completed:,.0f}/{task.total:,.0f} y"),
+               TextColumn("{task.fields[rate]}"), TextColumn("{task.fields[info]}"),
+               TimeElapsedColumn(), TimeRemainingColumn())
+    start = time.perf_counter()
+    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
+        task = bar.add_task(description, total=total_years, info="", rate="")
+
+        def advance(years: float, info: str = "") -> None:
+            wall = time.perf_counter() - start
+            rate = f"{years / wall:,.3g} y/s" if wall > 0 else ""
+            bar.update(task, completed=years, info=info, rate=rate)
+
+        yield advance

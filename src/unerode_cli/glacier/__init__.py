@@ -11,6 +11,7 @@ Modules, one job each:
 - ``transport``: ∂H/∂t = M − ∇·(H ū) (001 Eq. 1), limited upwind fluxes in ``transport_kernels``;
 - ``multiscale``: long steps of that transport, δt(x) and a Gaussian stack of T (001 §5);
 - ``erosion``: abrasion and quarrying from the sliding velocity (001 §6.1).
+- ``coupled``: the coupled time stepping of all of them (001 §3.2).
 
 Conventions: x along columns (east), y along rows (increasing row index, i.e. south on a
 north-up raster); velocity components (u, v) follow the same axes. Lengths in metres, time in

@@ -65,7 +65,7 @@ class GlacierJob:
     dt: float = 10.0
     iceflow: str = "blatter"
     layers: int = 10
-    sliding_c: str = "1000"
+    sliding_c: str = repr(blatter.DEFAULT_SLIDING_C)
     sliding_sigma: float = 1.5
     rate_factor: float | None = None
     boundary: str = "open"
@@ -258,8 +258,15 @@ def _provenance(job: GlacierJob, params: coupled.CoupledParams, given: dict[str,
 def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
     """Run the coupled model, write the outputs and return a one-line summary.
 
-    ``on_step(info)`` is called after each step with the simulated time and ice volume;
-    ``on_note(text)`` with notes for the user (e.g. no ice can form)."""
+    ``on_step(years, info)`` is called after every step (ramp steps included) with the simulated
+    years done and a line on the step: ice volume, fastest ice, the velocity solver's iterations
+    and relative residual; ``on_note(text)`` with notes for the user (e.g. no ice can form).
+
+    Divergence (``DivergenceGuard``, as erode and climate-run): after every step the bed, and the
+    ice surface b + H, must be finite and within 5 × the DEM's relief (+ 100 m) of the starting
+    DEM — the surface also may rise by p_max (m/y) times the years run, as snow piles up. A run
+    that leaves that bound stops at that step (RunFailure, exit 1) before anything is written;
+    snapshots written before are removed by the caller's output handling."""
     job, terrain = prepared.job, prepared.terrain
     grid = terrain.grid
     start = time.perf_counter()
@@ -276,20 +283,30 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
             path = snapshot_path(snapshot_base(job), k)
             _save_layer(prepared, state.thickness, path, "m", {"time_years": t}, t)
             snapshots.append(path)
+        if on_step is not None:
+            on_step(end.time, "no ice")
     else:
-        guard = DivergenceGuard(terrain.elevation, hint="lower --dt")
+        hint = "lower --dt, or raise --sliding-C if the ice slides at km/y"
+        bed_guard = DivergenceGuard(terrain.elevation, hint=hint)
+        surface_guard = DivergenceGuard(terrain.elevation + prepared.thickness,
+                                        uplift_rate=_largest(prepared.params.p_max), hint=hint)
+
+        def check(new: coupled.GlacierState, report: coupled.StepReport, k: int) -> None:
+            where = f"in step {k} (t = {new.time:g} y)"
+            bed_guard.check(new.bed, new.time, where)
+            surface_guard.check(new.bed + new.thickness, new.time, where)
+            if on_step is not None:
+                on_step(new.time, _step_info(report))
 
         def after_step(new: coupled.GlacierState, report: coupled.StepReport) -> None:
-            guard.check(new.bed, new.time, f"at t = {new.time:g} y")
             if any(math.isclose(new.time, t, rel_tol=1e-12) for t in prepared.snapshot_times):
                 path = snapshot_path(snapshot_base(job), len(snapshots) + 1)
                 _save_layer(prepared, new.thickness, path, "m", {"time_years": new.time}, new.time)
                 snapshots.append(path)
-            if on_step is not None:
-                on_step(f"t = {new.time:,.0f} y, ice {report.volume / 1e9:.4g} km³")
 
         try:
-            result = coupled.run(state, grid, prepared.params, prepared.ela, prepared.times, after_step)
+            result = coupled.run(state, grid, prepared.params, prepared.ela, prepared.times, after_step,
+                                 check)
         except coupled.UnstableStep as exc:
             raise InputError(
                 f"--dt {exc.dt:g} y is above the stable explicit ice-transport step {exc.stable:.3g} y "
@@ -319,6 +336,22 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                     f"{result.max_residual:.2g}, "
                     f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
     return summary
+
+
+def _largest(value: float | np.ndarray) -> float:
+    """max of a number or a raster (NaN ignored)."""
+    values = np.asarray(value, dtype=np.float64)
+    return float(np.nanmax(values)) if values.size else 0.0
+
+
+def _step_info(report: coupled.StepReport) -> str:
+    """One step in words: the ice volume, the fastest column, and the velocity solve."""
+    flow = report.flow
+    text = f"step {report.dt:g} y, ice {report.volume / 1e9:.4g} km³, max speed {flow.max_speed():.4g} m/y"
+    if flow.lattice is not None:
+        text += (f", Blatter–Pattyn {flow.iterations} iterations, residual {flow.residual:.3g}"
+                 + ("" if flow.converged else " (not converged)"))
+    return text
 
 
 def run_diagnostic(prepared: PreparedGlacierJob) -> str:
