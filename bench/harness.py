@@ -12,10 +12,23 @@ from pathlib import Path
 from typing import Any
 
 #: A case returns a zero-argument callable to time (set-up done outside it) and a size for
-#: throughput: ``(work, amount, unit)``, e.g. ``(fn, 4096 * 4096, "cells")``.
+#: throughput: ``(work, amount, unit)``, e.g. ``(fn, 4096 * 4096, "cells")``. A ``work`` that
+#: returns ``Timed(seconds)`` times itself: that figure is kept instead of its wall time.
 Case = Callable[[], tuple[Callable[[], Any], float, str]]
 
 REGISTRY: dict[str, Case] = {}
+
+#: Ratios of two benchmarks' medians, reported when both were measured: label → (numerator,
+#: denominator), e.g. the per-step cost of a command over that of its kernels.
+RATIOS: dict[str, tuple[str, str]] = {}
+
+
+@dataclass(frozen=True)
+class Timed:
+    """What a self-timing ``work`` returns: the seconds to record for this run (e.g. the
+    difference of two commands timed back to back)."""
+
+    seconds: float
 
 
 def benchmark(name: str) -> Callable[[Case], Case]:
@@ -26,6 +39,11 @@ def benchmark(name: str) -> Callable[[Case], Case]:
         return case
 
     return register
+
+
+def ratio(label: str, numerator: str, denominator: str) -> None:
+    """Report ``numerator``'s median over ``denominator``'s under ``label``."""
+    RATIOS[label] = (numerator, denominator)
 
 
 @dataclass
@@ -48,9 +66,17 @@ def measure(name: str, case: Case, repeats: int = 5) -> Result:
     runs = []
     for _ in range(max(3, repeats)):
         start = time.perf_counter()
-        work()
-        runs.append(time.perf_counter() - start)
+        value = work()
+        elapsed = time.perf_counter() - start
+        runs.append(value.seconds if isinstance(value, Timed) else elapsed)
     return Result(name, statistics.median(runs), runs, amount, unit)
+
+
+def ratios(results: list[Result]) -> dict[str, float]:
+    """The ``RATIOS`` whose two benchmarks are among ``results``."""
+    median = {r.name: r.median_s for r in results}
+    return {label: median[num] / median[den] for label, (num, den) in RATIOS.items()
+            if num in median and den in median and median[den] > 0}
 
 
 def write_reports(results: list[Result], folder: Path) -> tuple[Path, Path]:
@@ -58,11 +84,16 @@ def write_reports(results: list[Result], folder: Path) -> tuple[Path, Path]:
     machine = {"python": platform.python_version(), "machine": platform.machine(),
                "processor": platform.processor(), "node_cpus": _cpus()}
     json_path, md_path = folder / "results.json", folder / "results.md"
+    found = ratios(results)
     json_path.write_text(json.dumps({"machine": machine,
-                                     "results": [asdict(r) for r in results]}, indent=2) + "\n")
+                                     "results": [asdict(r) for r in results],
+                                     "ratios": found}, indent=2) + "\n")
     lines = ["| benchmark | median | throughput |", "|---|---:|---:|"]
     for r in sorted(results, key=lambda r: r.name):
         lines.append(f"| {r.name} | {_time(r.median_s)} | {_rate(r.throughput, r.unit)} |")
+    if found:
+        lines += ["", "| ratio | value |", "|---|---:|"]
+        lines += [f"| {label} | {value:.2f}× |" for label, value in sorted(found.items())]
     md_path.write_text("\n".join(lines) + "\n")
     return json_path, md_path
 

@@ -1,7 +1,8 @@
-"""Run the registered benchmarks: ``python bench/run.py [-k SUBSTRING] [--repeats N]``.
+"""Run the registered benchmarks: ``python bench/run.py [-k SUBSTRING ...] [--repeats N]``.
 
-Writes bench/results.json and bench/results.md (markdown table). With ``-k``, the earlier
-results of the benchmarks that were not run are kept."""
+Writes bench/results.json and bench/results.md (markdown table, then the ratios of
+``harness.RATIOS``). With ``-k`` (repeatable: a benchmark runs when its name contains any of
+them), the earlier results of the benchmarks that were not run are kept."""
 
 from __future__ import annotations
 
@@ -18,14 +19,15 @@ from harness import REGISTRY, load_results, measure, write_reports  # noqa: E402
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("-k", default="", help="run only benchmarks whose name contains this")
+    parser.add_argument("-k", action="append", default=[],
+                        help="run only benchmarks whose name contains this (repeatable: any of them)")
     parser.add_argument("--repeats", type=int, default=5, help="timed runs per case (≥ 3)")
     args = parser.parse_args()
     for module in sorted(HERE.glob("bench_*.py")):
         importlib.import_module(module.stem)
     results = []
     for name, case in REGISTRY.items():
-        if args.k in name:
+        if not args.k or any(k in name for k in args.k):
             result = measure(name, case, args.repeats)
             print(f"{name:45s} {result.median_s * 1e3:10.1f} ms", flush=True)
             results.append(result)

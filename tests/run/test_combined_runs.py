@@ -70,3 +70,35 @@ def test_fluvial_step_kept_from_the_stability_check_is_the_step_asked_for():
         process.advance(moved, 250.0).dh,
         fluvial.step(moved, grid, outlets, params, 250.0,
                      routing=route(moved, grid, outlets)).dh)
+
+
+def test_a_dem_with_nodata_is_routed_and_stepped_once_per_step(monkeypatch: pytest.MonkeyPatch):
+    """The routing and fluvial step kept between the stability check and the step itself also
+    hold on a DEM with nodata (NaN cells): one fluvial step and one routing per time step, and
+    the same result as the uncached step."""
+    h0 = synthesize("mountain", (48, 48), 400.0, 3)
+    h0[10:16, 20:30] = np.nan
+    terrain = Terrain(h0, 10.0, 10.0)
+    calls = {"step": 0, "route": 0}
+    step = fluvial.step
+
+    def counted_step(*args, **kwargs):
+        calls["step"] += 1
+        return step(*args, **kwargs)
+
+    def counted_route(*args, **kwargs):
+        calls["route"] += 1
+        return route(*args, **kwargs)
+
+    monkeypatch.setattr(fluvial, "step", counted_step)
+    monkeypatch.setattr("unerode_cli.hydro.routing.route", counted_route)
+    out, _ = run(h0, processes(terrain, ["fluvial"]), 100.0, 3)
+    assert calls == {"step": 3, "route": 3}
+    valid = np.isfinite(h0)
+    expected = h0.copy()
+    for _ in range(3):
+        outlets = outlet_mask(terrain.grid, "all")
+        params = fluvial.FluvialParams(**{k: VALUES[k] for k in
+                                          ("uplift", "k", "k_d", "precipitation", "m", "n")})
+        expected = expected + step(expected, terrain.grid, outlets, params, 100.0).dh
+    np.testing.assert_array_equal(out[valid], expected[valid])

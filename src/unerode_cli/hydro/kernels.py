@@ -24,6 +24,16 @@ FILL_EPSILON = 1e-9
 
 
 @numba.njit(cache=True)
+def same_words(a, b):
+    """Whether the 1-d arrays ``a`` and ``b`` (same size) hold the same words, e.g. float64
+    bits viewed as uint64; stops at the first difference."""
+    for i in range(a.size):
+        if a[i] != b[i]:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
 def inverse_distances(dx, dy):
     """float64[8] inverse of the distance (1/m) to each neighbour: dx east-west, dy
     north-south, sqrt(dx² + dy²) on diagonals."""

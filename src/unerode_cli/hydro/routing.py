@@ -134,6 +134,17 @@ def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method
     return Routing(grid, method, filled, outlets, order)
 
 
+def same_values(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether ``a`` and ``b`` (elevations, m) hold the same float64 values bit for bit, NaN
+    included, so that they route alike; at memory speed and stopping at the first difference
+    (``np.array_equal`` compares every cell, allocates, and finds NaN different from NaN)."""
+    if a.shape != b.shape:
+        return False
+    words_a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1).view(np.uint64)
+    words_b = np.ascontiguousarray(b, dtype=np.float64).reshape(-1).view(np.uint64)
+    return bool(kernels.same_words(words_a, words_b))
+
+
 def accumulate(routing: Routing, source: float | np.ndarray) -> np.ndarray:
     """Upstream integral of ``source`` × cell area over the flow network (000 Eq. 5).
 

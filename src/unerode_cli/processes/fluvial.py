@@ -153,6 +153,7 @@ def step(
     scheme: Scheme = "limiter",
     method: str = "mfd",
     inflow: Inflow | None = None,
+    validated: bool = False,
 ) -> FluvialChange:
     """One step of fluvial erosion and deposition (dt > 0) or their reversal (dt < 0).
 
@@ -168,6 +169,8 @@ def step(
         scheme: slope of backward steps: ``"limiter"`` (000 Eq. 12) or ``"upwind"`` (Eq. 10).
         method: routing method when ``routing`` is not given: ``"mfd"`` or ``"d8"``.
         inflow: water and sediment entering the domain (m³/y per cell), or None.
+        validated: ``params`` were already checked on ``grid`` (``FluvialParams.validate``),
+            e.g. by a process that steps with the same parameters again and again.
 
     Returns:
         the change (Δh with the uplift U·dt included), the fluxes Q and Q_s and the mass budget
@@ -177,11 +180,13 @@ def step(
     from unerode_cli.hydro.routing import cell_sources, route, scratch
     from unerode_cli.processes import fluvial_kernels as fk
 
-    params.validate(grid)
+    if not validated:
+        params.validate(grid)
     mode = slope_mode(dt, scheme)
     if routing is None:
         routing = route(elevation, grid, outlets, method)
-    elif not np.array_equal(routing.outlets, outlets & grid.valid):
+    elif outlets is not routing.outlets and not np.array_equal(routing.outlets,
+                                                               outlets & grid.valid):
         raise ValueError("the routing was computed with other outlets than the ones given")
     h = np.ascontiguousarray(elevation, dtype=np.float64)
     shape = grid.shape
@@ -224,6 +229,7 @@ def max_stable_dt(
     routing: Routing,
     courant: float = 1.0,
     discharge: np.ndarray | None = None,
+    validated: bool = False,
 ) -> float:
     """Largest |dt| (y) for which the explicit stream power term is stable (CFL, 000 §6).
 
@@ -238,22 +244,30 @@ def max_stable_dt(
     deposition term does not restrict the step (000 §6). ``discharge`` (m³/y, float[ny, nx]),
     when given, is the discharge of ``routing`` (e.g. ``FluvialChange.discharge`` of a step
     on this elevation, inflow included) and saves computing it again; without it, the
-    discharge of the precipitation alone.
+    discharge of the precipitation alone. ``validated``: as for :func:`step`.
     """
     from unerode_cli.hydro.fields import flat_field
     from unerode_cli.hydro.routing import accumulate, scratch
     from unerode_cli.processes import fluvial_kernels as fk
 
-    params.validate(grid)
+    if not validated:
+        params.validate(grid)
     h = np.ascontiguousarray(elevation, dtype=np.float64)
     if discharge is None:
         discharge = accumulate(routing, params.precipitation)
     q = np.ascontiguousarray(discharge, dtype=np.float64).ravel()
-    slope = scratch("fluvial.slope", (h.size,), np.float64)
-    fk.slope_into(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM, slope)
-    free = (grid.valid & ~routing.outlets).ravel()
     k = flat_field(params.k, grid.shape, "k")
-    speed = fk.max_speed(q, slope, free, k, float(params.m), float(params.n))
+    free = (grid.valid & ~routing.outlets).ravel()
+    m, n = float(params.m), float(params.n)
+    if k.size == 1 and n == 1.0:
+        # max_speed's own shortcut, K·(max Q)^m, without its parallel region, which costs more
+        # to start than this one reduction (milliseconds when the other cores are busy)
+        q_max = float(np.max(q, where=free, initial=0.0))
+        speed = float(k[0]) * q_max**m if q_max > 0.0 else 0.0
+    else:
+        slope = scratch("fluvial.slope", (h.size,), np.float64)
+        fk.slope_into(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM, slope)
+        speed = fk.max_speed(q, slope, free, k, m, n)
     if speed == 0.0:
         return float("inf")
     return courant / (speed * float(np.hypot(1.0 / grid.dx, 1.0 / grid.dy)))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
@@ -38,6 +39,8 @@ class ParamSpec:
 
     def check(self, value: float | np.ndarray) -> None:
         """Raise ValueError with one sentence when ``value`` is outside the valid range."""
+        if isinstance(value, float) and self._plainly_valid(value):
+            return  # the usual case, checked in every time step: no array round trip
         arr = np.asarray(value, dtype=float)
         if not np.all(np.isfinite(arr)):
             raise ValueError(f"parameter {self.name} must be finite")
@@ -52,6 +55,11 @@ class ParamSpec:
             raise ValueError(
                 f"parameter {self.name} must be ≤ {self.maximum:g}{unit}, got {np.max(arr):g}"
             )
+
+    def _plainly_valid(self, value: float) -> bool:
+        """Whether the number ``value`` is finite and in range (``check`` says why when not)."""
+        return (math.isfinite(value) and (self.minimum is None or value >= self.minimum)
+                and (self.maximum is None or value <= self.maximum))
 
 
 def check_fields(params: Any, specs: Sequence[ParamSpec], grid: Grid) -> None:

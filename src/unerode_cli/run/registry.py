@@ -32,19 +32,33 @@ class Surface:
     boundaries: Boundaries
     method: str = "mfd"
     _cached: tuple[np.ndarray, Any] | None = field(default=None, repr=False)
+    _fixed_outlets: np.ndarray | None = field(default=None, repr=False)
 
     def outlets(self, h: np.ndarray) -> np.ndarray:
-        """bool[ny, nx] base-level cells of ``h`` (edges, sea, Dirichlet nodes)."""
-        return self.boundaries.outlets(h, self.terrain)
+        """bool[ny, nx] base-level cells of ``h`` (edges, sea, Dirichlet nodes). Without a sea
+        level they do not depend on ``h``: that mask is built once and handed out read-only."""
+        if self.boundaries.sea_level is not None:
+            return self.boundaries.outlets(h, self.terrain)
+        if self._fixed_outlets is None:
+            mask = self.boundaries.outlets(h, self.terrain)
+            mask.flags.writeable = False
+            self._fixed_outlets = mask
+        return self._fixed_outlets
 
     def routing(self, h: np.ndarray) -> Any:
-        """The routing of ``h`` towards its outlets (``unerode_cli.hydro.Routing``)."""
-        from unerode_cli.hydro import route
+        """The routing of ``h`` towards its outlets (``unerode_cli.hydro.Routing``), kept for
+        as long as ``h`` holds the same values bit for bit (NaN on nodata included)."""
+        from unerode_cli.hydro.routing import route, same_values
 
-        if self._cached is not None and np.array_equal(self._cached[0], h):
-            return self._cached[1]
+        cached = self._cached
+        if cached is not None and same_values(cached[0], h):
+            return cached[1]
         routing = route(h, self.terrain.grid, self.outlets(h), self.method)
-        self._cached = (h.copy(), routing)
+        # the kept copy of h: the previous one's buffer (a fresh array costs page faults)
+        key = cached[0] if cached is not None and cached[0].shape == h.shape else None
+        key = np.empty(h.shape, dtype=np.float64) if key is None else key
+        np.copyto(key, h)
+        self._cached = (key, routing)
         return routing
 
 
@@ -76,15 +90,17 @@ class FluvialProcess:
         last = self._last
         if last is not None and last[0] is routing and last[1] == dt:
             return routing, last[2]
+        # the parameters (frozen) are checked on the first step; later steps skip that scan
         change = fluvial.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
-                              dt, routing=routing, scheme=self.scheme, inflow=self.inflow)
+                              dt, routing=routing, scheme=self.scheme, inflow=self.inflow,
+                              validated=last is not None)
         self._last = (routing, dt, change)
         return routing, change
 
     def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
         routing, change = self._step(elevation, dt)
         return fluvial.max_stable_dt(elevation, self.surface.terrain.grid, self.params, routing,
-                                     discharge=change.discharge)
+                                     discharge=change.discharge, validated=True)
 
     def advance(self, elevation: np.ndarray, dt: float) -> Change:
         change = self._step(elevation, dt)[1]
