@@ -88,6 +88,102 @@ def basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt):
     return bx, by, ub, vb, ub * bx + vb * by
 
 
+@numba.njit(cache=True, inline="always")
+def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps2):
+    """Energy of the cells (k, j, ·) of one row of one layer; their gradient added to gu, gv
+    (rows j and j + 1, wrapped)."""
+    nz, ny, nx = u.shape
+    area = dx * dy
+    energy = 0.0
+    half_p = 0.5 * p
+    top = nz - 1
+    j1 = j + 1 if j + 1 < ny else 0
+    for i in range(ncx):
+        i1 = i + 1 if i + 1 < nx else 0
+        ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
+        if ct <= 0.0:
+            continue
+        s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
+        sx = 0.5 * ((s01 - s00) + (s11 - s10)) / dx - tilt
+        sy = 0.5 * ((s10 - s00) + (s11 - s01)) / dy
+
+        ub00, ub01, ub10, ub11 = u[k, j, i], u[k, j, i1], u[k, j1, i], u[k, j1, i1]
+        ut00, ut01, ut10, ut11 = u[k + 1, j, i], u[k + 1, j, i1], u[k + 1, j1, i], u[k + 1, j1, i1]
+        vb00, vb01, vb10, vb11 = v[k, j, i], v[k, j, i1], v[k, j1, i], v[k, j1, i1]
+        vt00, vt01, vt10, vt11 = v[k + 1, j, i], v[k + 1, j, i1], v[k + 1, j1, i], v[k + 1, j1, i1]
+
+        uz = 0.25 * ((ut00 + ut01 + ut10 + ut11) - (ub00 + ub01 + ub10 + ub11)) / ct
+        vz = 0.25 * ((vt00 + vt01 + vt10 + vt11) - (vb00 + vb01 + vb10 + vb11)) / ct
+        ux = 0.25 * ((ub01 - ub00) + (ub11 - ub10) + (ut01 - ut00) + (ut11 - ut10)) / dx - ax * uz
+        vx = 0.25 * ((vb01 - vb00) + (vb11 - vb10) + (vt01 - vt00) + (vt11 - vt10)) / dx - ax * vz
+        uy = 0.25 * ((ub10 - ub00) + (ub11 - ub01) + (ut10 - ut00) + (ut11 - ut01)) / dy - ay * uz
+        vy = 0.25 * ((vb10 - vb00) + (vb11 - vb01) + (vt10 - vt00) + (vt11 - vt01)) / dy - ay * vz
+        uc = 0.125 * (ub00 + ub01 + ub10 + ub11 + ut00 + ut01 + ut10 + ut11)
+        vc = 0.125 * (vb00 + vb01 + vb10 + vb11 + vt00 + vt01 + vt10 + vt11)
+
+        dxy = 0.5 * (uy + vx)
+        d2 = 2.0 * (ux * ux + vy * vy + ux * vy + dxy * dxy + 0.25 * (uz * uz + vz * vz)) + eps2
+        vol = area * ct
+        power = d2 ** (half_p - 1.0)  # one power per cell: |D|^p = |D|^(p−2)·|D|²
+        energy += vol * (b_visc / p * power * d2 + rho_g * (sx * uc + sy * vc))
+
+        w = vol * 0.5 * b_visc * power  # ∂E/∂|D|²
+        g_ux = w * 2.0 * (2.0 * ux + vy)
+        g_vy = w * 2.0 * (2.0 * vy + ux)
+        g_uy = w * 2.0 * dxy
+        g_vx = g_uy
+        g_uz = w * uz - ax * g_ux - ay * g_uy
+        g_vz = w * vz - ax * g_vx - ay * g_vy
+        # per-corner weights: ±1/(4dx) along x, ±1/(4dy) along y, ±1/(4c_t) along z, 1/8 mean
+        cxu, cyu, czu, c0u = g_ux / (4 * dx), g_uy / (4 * dy), g_uz / (4 * ct), vol * rho_g * sx / 8
+        cxv, cyv, czv, c0v = g_vx / (4 * dx), g_vy / (4 * dy), g_vz / (4 * ct), vol * rho_g * sy / 8
+        for c in range(2):
+            kk = k + c
+            sz = 2 * c - 1
+            gu[kk, j, i] += c0u - cxu - cyu + sz * czu
+            gu[kk, j, i1] += c0u + cxu - cyu + sz * czu
+            gu[kk, j1, i] += c0u - cxu + cyu + sz * czu
+            gu[kk, j1, i1] += c0u + cxu + cyu + sz * czu
+            gv[kk, j, i] += c0v - cxv - cyv + sz * czv
+            gv[kk, j, i1] += c0v + cxv - cyv + sz * czv
+            gv[kk, j1, i] += c0v - cxv + cyv + sz * czv
+            gv[kk, j1, i1] += c0v + cxv + cyv + sz * czv
+    return energy
+
+
+@numba.njit(cache=True, inline="always")
+def _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2):
+    """Energy of the basal faces; their gradient added to gu, gv (level 0)."""
+    nz, ny, nx = u.shape
+    area = dx * dy
+    energy = 0.0
+    half_s = 0.5 * sigma
+    for j in range(ncy):
+        j1 = j + 1 if j + 1 < ny else 0
+        for i in range(ncx):
+            cf = c_face[j, i]
+            if cf <= 0.0:
+                continue
+            i1 = i + 1 if i + 1 < nx else 0
+            bx, by, ub, vb, t = basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt)
+            m2 = ub * ub + vb * vb + t * t + ureg2
+            face = area * math.sqrt(1.0 + bx * bx + by * by)  # the bed's area dS, not its plan view
+            power = m2 ** (half_s - 1.0)
+            energy += face * cf / sigma * power * m2
+            ws = face * cf * 0.5 * power  # ∂E/∂|u_b|_M²
+            gub = 0.25 * ws * 2.0 * (ub + t * bx)
+            gvb = 0.25 * ws * 2.0 * (vb + t * by)
+            gu[0, j, i] += gub
+            gu[0, j, i1] += gub
+            gu[0, j1, i] += gub
+            gu[0, j1, i1] += gub
+            gv[0, j, i] += gvb
+            gv[0, j, i1] += gvb
+            gv[0, j1, i] += gvb
+            gv[0, j1, i1] += gvb
+    return energy
+
+
 @numba.njit(cache=True)
 def energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic):
     """Blatter–Pattyn energy E (Pa·m³/y) and its gradient with respect to every node velocity.
@@ -107,93 +203,62 @@ def energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, e
 
     Returns:
         (E, ∂E/∂u, ∂E/∂v), the gradients float64[N+1, ny, nx] in Pa·m³/y per m/y.
+
+    Serial; ``energy_gradient_parallel`` gives the same numbers on threads.
     """
     nz, ny, nx = u.shape
     ncx = nx if periodic else nx - 1
     ncy = ny if periodic else ny - 1
     gu = np.zeros_like(u)
     gv = np.zeros_like(v)
-    area = dx * dy
+    rows = np.zeros(ncy)
+    paired = ncy - 1 if (periodic and ncy % 2 == 1) else ncy
+    for parity in range(2):  # the order of ``energy_gradient_parallel``
+        for j in range(parity, paired, 2):
+            for k in range(nz - 1):
+                rows[j] += _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps2)
+    for j in range(paired, ncy):
+        for k in range(nz - 1):
+            rows[j] += _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps2)
     energy = 0.0
-    half_p = 0.5 * p
-    top = nz - 1
-    for k in range(nz - 1):
-        for j in range(ncy):
-            j1 = j + 1 if j + 1 < ny else 0
-            for i in range(ncx):
-                i1 = i + 1 if i + 1 < nx else 0
-                ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
-                if ct <= 0.0:
-                    continue
-                s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
-                sx = 0.5 * ((s01 - s00) + (s11 - s10)) / dx - tilt
-                sy = 0.5 * ((s10 - s00) + (s11 - s01)) / dy
-
-                ub00, ub01, ub10, ub11 = u[k, j, i], u[k, j, i1], u[k, j1, i], u[k, j1, i1]
-                ut00, ut01, ut10, ut11 = u[k + 1, j, i], u[k + 1, j, i1], u[k + 1, j1, i], u[k + 1, j1, i1]
-                vb00, vb01, vb10, vb11 = v[k, j, i], v[k, j, i1], v[k, j1, i], v[k, j1, i1]
-                vt00, vt01, vt10, vt11 = v[k + 1, j, i], v[k + 1, j, i1], v[k + 1, j1, i], v[k + 1, j1, i1]
-
-                uz = 0.25 * ((ut00 + ut01 + ut10 + ut11) - (ub00 + ub01 + ub10 + ub11)) / ct
-                vz = 0.25 * ((vt00 + vt01 + vt10 + vt11) - (vb00 + vb01 + vb10 + vb11)) / ct
-                ux = 0.25 * ((ub01 - ub00) + (ub11 - ub10) + (ut01 - ut00) + (ut11 - ut10)) / dx - ax * uz
-                vx = 0.25 * ((vb01 - vb00) + (vb11 - vb10) + (vt01 - vt00) + (vt11 - vt10)) / dx - ax * vz
-                uy = 0.25 * ((ub10 - ub00) + (ub11 - ub01) + (ut10 - ut00) + (ut11 - ut01)) / dy - ay * uz
-                vy = 0.25 * ((vb10 - vb00) + (vb11 - vb01) + (vt10 - vt00) + (vt11 - vt01)) / dy - ay * vz
-                uc = 0.125 * (ub00 + ub01 + ub10 + ub11 + ut00 + ut01 + ut10 + ut11)
-                vc = 0.125 * (vb00 + vb01 + vb10 + vb11 + vt00 + vt01 + vt10 + vt11)
-
-                dxy = 0.5 * (uy + vx)
-                d2 = 2.0 * (ux * ux + vy * vy + ux * vy + dxy * dxy + 0.25 * (uz * uz + vz * vz)) + eps2
-                vol = area * ct
-                energy += vol * (b_visc / p * d2**half_p + rho_g * (sx * uc + sy * vc))
-
-                w = vol * 0.5 * b_visc * d2 ** (half_p - 1.0)  # ∂E/∂|D|²
-                g_ux = w * 2.0 * (2.0 * ux + vy)
-                g_vy = w * 2.0 * (2.0 * vy + ux)
-                g_uy = w * 2.0 * dxy
-                g_vx = g_uy
-                g_uz = w * uz - ax * g_ux - ay * g_uy
-                g_vz = w * vz - ax * g_vx - ay * g_vy
-                # per-corner weights: ±1/(4dx) along x, ±1/(4dy) along y, ±1/(4c_t) along z, 1/8 mean
-                cxu, cyu, czu, c0u = g_ux / (4 * dx), g_uy / (4 * dy), g_uz / (4 * ct), vol * rho_g * sx / 8
-                cxv, cyv, czv, c0v = g_vx / (4 * dx), g_vy / (4 * dy), g_vz / (4 * ct), vol * rho_g * sy / 8
-                for c in range(2):
-                    kk = k + c
-                    sz = 2 * c - 1
-                    gu[kk, j, i] += c0u - cxu - cyu + sz * czu
-                    gu[kk, j, i1] += c0u + cxu - cyu + sz * czu
-                    gu[kk, j1, i] += c0u - cxu + cyu + sz * czu
-                    gu[kk, j1, i1] += c0u + cxu + cyu + sz * czu
-                    gv[kk, j, i] += c0v - cxv - cyv + sz * czv
-                    gv[kk, j, i1] += c0v + cxv - cyv + sz * czv
-                    gv[kk, j1, i] += c0v - cxv + cyv + sz * czv
-                    gv[kk, j1, i1] += c0v + cxv + cyv + sz * czv
-
-    half_s = 0.5 * sigma
     for j in range(ncy):
-        j1 = j + 1 if j + 1 < ny else 0
-        for i in range(ncx):
-            cf = c_face[j, i]
-            if cf <= 0.0:
-                continue
-            i1 = i + 1 if i + 1 < nx else 0
-            bx, by, ub, vb, t = basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt)
-            m2 = ub * ub + vb * vb + t * t + ureg2
-            face = area * math.sqrt(1.0 + bx * bx + by * by)  # the bed's area dS, not its plan view
-            energy += face * cf / sigma * m2**half_s
-            ws = face * cf * 0.5 * m2 ** (half_s - 1.0)  # ∂E/∂|u_b|_M²
-            gub = 0.25 * ws * 2.0 * (ub + t * bx)
-            gvb = 0.25 * ws * 2.0 * (vb + t * by)
-            gu[0, j, i] += gub
-            gu[0, j, i1] += gub
-            gu[0, j1, i] += gub
-            gu[0, j1, i1] += gub
-            gv[0, j, i] += gvb
-            gv[0, j, i1] += gvb
-            gv[0, j1, i] += gvb
-            gv[0, j1, i1] += gvb
+        energy += rows[j]
+    energy += _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2)
     return energy, gu, gv
+
+
+@numba.njit(cache=True, parallel=True)
+def energy_gradient_parallel(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2,
+                             periodic):
+    """``energy_gradient`` on threads, with the same result whatever their number: the rows of
+    cells are done even rows first, then odd ones (a row writes the node rows j and j + 1 only,
+    so rows of one parity never write the same node), each row by one thread in a fixed order;
+    the row energies are added up in row order. A periodic lattice with an odd number of rows
+    has its last row (which writes row 0) done alone at the end."""
+    nz, ny, nx = u.shape
+    ncx = nx if periodic else nx - 1
+    ncy = ny if periodic else ny - 1
+    gu = np.zeros_like(u)
+    gv = np.zeros_like(v)
+    rows = np.zeros(ncy)
+    paired = ncy - 1 if (periodic and ncy % 2 == 1) else ncy
+    for parity in range(2):
+        for half in numba.prange((paired - parity + 1) // 2):
+            j = 2 * half + parity
+            for k in range(nz - 1):
+                rows[j] += _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps2)
+    for j in range(paired, ncy):
+        for k in range(nz - 1):
+            rows[j] += _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps2)
+    energy = 0.0
+    for j in range(ncy):
+        energy += rows[j]
+    energy += _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2)
+    return energy, gu, gv
+
+
+#: Lattices of at least this many nodes have their energy and gradient computed on threads.
+PARALLEL_MIN_NODES = 100_000
 
 
 @numba.njit(cache=True)
@@ -233,8 +298,12 @@ def restrict(gu, gv, dof, n):
 def objective(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic):
     """Energy (Pa·m³/y) and its gradient with respect to the unknowns x = [u_dof, v_dof]."""
     u, v = expand(x, dof)
-    energy, gu, gv = energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g,
-                                     eps2, ureg2, periodic)
+    if u.size >= PARALLEL_MIN_NODES:
+        energy, gu, gv = energy_gradient_parallel(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
+                                                  rho_g, eps2, ureg2, periodic)
+    else:
+        energy, gu, gv = energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g,
+                                         eps2, ureg2, periodic)
     return energy, restrict(gu, gv, dof, x.size // 2)
 
 
@@ -359,13 +428,14 @@ PIVOT_FLOOR = 1e-10
 
 
 @numba.njit(cache=True, error_model="numpy")
-def column_solve(diag, upper, chains, r, out, work):
-    """out = T⁻¹·r for T tridiagonal along every column (``picard_columns``), u and v apart:
-    the Thomas algorithm, level by level over all columns at once (serial: a few ms, less
-    than waking threads for each level), pivots floored at PIVOT_FLOOR × their diagonal.
-    ``work`` (float64[2n]) is scratch."""
+def column_factor(diag, upper, chains):
+    """The Thomas factorisation of T (``picard_columns``) along every column, u and v apart:
+    (1 / pivot, upper / pivot), float64[2n] each, pivots floored at PIVOT_FLOOR × their diagonal.
+    It does not depend on the right-hand side, so each preconditioner is factorised once."""
     n = diag.size // 2
     nz, ncol = chains.shape
+    inv = np.empty(2 * n)
+    ratio = np.empty(2 * n)
     for q in range(nz):
         for task in range(2 * ncol):
             half = task // ncol
@@ -375,15 +445,34 @@ def column_solve(diag, upper, chains, r, out, work):
                 continue
             off = half * n
             pivot = diag[off + d]
+            if q > 0:
+                below = chains[q - 1, col]
+                pivot -= upper[off + below] * ratio[off + below]
+            pivot = max(pivot, PIVOT_FLOOR * diag[off + d])
+            inv[off + d] = 1.0 / pivot
+            ratio[off + d] = upper[off + d] / pivot
+    return inv, ratio
+
+
+@numba.njit(cache=True)
+def column_solve_factored(inv, ratio, upper, chains, r, out):
+    """out = T⁻¹·r from ``column_factor``'s (inv, ratio): forward elimination, back substitution
+    (level by level over all columns at once: serial, a few ms)."""
+    n = inv.size // 2
+    nz, ncol = chains.shape
+    for q in range(nz):
+        for task in range(2 * ncol):
+            half = task // ncol
+            col = task - half * ncol
+            d = chains[q, col]
+            if d < 0:
+                continue
+            off = half * n
             rhs = r[off + d]
             if q > 0:
                 below = chains[q - 1, col]
-                link = upper[off + below]
-                pivot -= link * work[off + below]
-                rhs -= link * out[off + below]
-            pivot = max(pivot, PIVOT_FLOOR * diag[off + d])
-            work[off + d] = upper[off + d] / pivot
-            out[off + d] = rhs / pivot
+                rhs -= upper[off + below] * out[off + below]
+            out[off + d] = rhs * inv[off + d]
     for q in range(nz - 2, -1, -1):
         for task in range(2 * ncol):
             half = task // ncol
@@ -392,8 +481,17 @@ def column_solve(diag, upper, chains, r, out, work):
             above = chains[q + 1, col]
             if d >= 0 and above >= 0:
                 off = half * n
-                out[off + d] -= work[off + d] * out[off + above]
+                out[off + d] -= ratio[off + d] * out[off + above]
     return out
+
+
+@numba.njit(cache=True)
+def column_solve(diag, upper, chains, r, out, work):
+    """out = T⁻¹·r for T tridiagonal along every column (``picard_columns``), u and v apart:
+    the Thomas algorithm (``column_factor`` then ``column_solve_factored``), pivots floored at
+    PIVOT_FLOOR × their diagonal. ``work`` (float64[2n]) is unused (kept for callers)."""
+    inv, ratio = column_factor(diag, upper, chains)
+    return column_solve_factored(inv, ratio, upper, chains, r, out)
 
 
 @numba.njit(cache=True)
@@ -413,16 +511,16 @@ def _add_scaled(y, alpha, x):
 
 
 @numba.njit(cache=True)
-def lbfgs_direction(g, s_hist, y_hist, rho, count, newest, diag, upper, chains, out, work):
+def lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper, chains, out):
     """The L-BFGS step −H·g by the two-loop recursion (Nocedal & Wright, Algorithm 7.4), with
     the initial inverse Hessian γ·T⁻¹: T the column preconditioner (``picard_columns``,
-    ``column_solve``) and γ = sᵀy / yᵀT⁻¹y of the newest pair.
+    factorised by ``column_factor`` into inv, ratio) and γ = sᵀy / yᵀT⁻¹y of the newest pair.
 
     Args:
         g: float64[2n] gradient.
         s_hist, y_hist: float64[m, 2n] ring buffers of the last ``count`` steps s and gradient
             changes y, the newest in row ``newest``; rho: float64[m], 1 / sᵀy of each row.
-        diag, upper, chains: the preconditioner; out, work: float64[2n] scratch.
+        inv, ratio, upper, chains: the factorised preconditioner; out: float64[2n] scratch.
     """
     m = s_hist.shape[0]
     q = g.copy()
@@ -431,10 +529,10 @@ def lbfgs_direction(g, s_hist, y_hist, rho, count, newest, diag, upper, chains, 
         row = (newest - back) % m
         alphas[row] = rho[row] * _dot(s_hist[row], q)
         _add_scaled(q, -alphas[row], y_hist[row])
-    column_solve(diag, upper, chains, q, out, work)
+    column_solve_factored(inv, ratio, upper, chains, q, out)
     q[:] = out
     if count > 0:
-        column_solve(diag, upper, chains, y_hist[newest], out, work)
+        column_solve_factored(inv, ratio, upper, chains, y_hist[newest], out)
         curvature = rho[newest] * _dot(y_hist[newest], out)
         if curvature > 0.0:
             q *= 1.0 / curvature
@@ -444,3 +542,113 @@ def lbfgs_direction(g, s_hist, y_hist, rho, count, newest, diag, upper, chains, 
     for i in range(q.size):
         q[i] = -q[i]
     return q
+
+
+# --- horizontal coarse-grid correction (``blatter``'s multigrid) --------------------------------------
+#
+# A coarse lattice keeps every ``fy``-th row and ``fx``-th column of nodes (f = 1 or 2 per axis) and
+# the same levels k. Prolongation P: bilinear interpolation of the coarse node values along each
+# coarsened axis (a fine node between two coarse nodes takes their mean; past the last coarse node of
+# an open axis, its value), level by level. A fine unknown takes the value interpolated at its lowest
+# node (the node it is stored at; collapsed nodes above share it). Restriction of a gradient: Pᵀ.
+
+
+@numba.njit(cache=True, inline="always")
+def _weights(i, f, nc, periodic):
+    """Coarse neighbours (i0, i1) and weights (w0, w1) of fine index i along an axis coarsened by f
+    (1 or 2) to nc coarse nodes (w1 = 0 when there is one)."""
+    if f == 1:
+        return i, i, 1.0, 0.0
+    i0 = i // 2
+    if i - 2 * i0 == 0:
+        return i0, i0, 1.0, 0.0
+    i1 = i0 + 1
+    if i1 >= nc:
+        if periodic:
+            return i0, 0, 0.5, 0.5
+        return i0, i0, 1.0, 0.0
+    return i0, i1, 0.5, 0.5
+
+
+@numba.njit(cache=True)
+def prolong(y, dof_c, dof_f, n_f, fy, fx, periodic):
+    """Fine unknowns (float64[2 n_f]) interpolated from the coarse unknowns y (``dof_c``)."""
+    nz, ny, nx = dof_f.shape
+    ncy, ncx = dof_c.shape[1], dof_c.shape[2]
+    n_c = y.size // 2
+    x = np.zeros(2 * n_f)
+    for k in range(nz):
+        for j in range(ny):
+            j0, j1, wy0, wy1 = _weights(j, fy, ncy, periodic)
+            for i in range(nx):
+                d = dof_f[k, j, i]
+                if d < 0 or (k > 0 and dof_f[k - 1, j, i] == d):
+                    continue
+                i0, i1, wx0, wx1 = _weights(i, fx, ncx, periodic)
+                su = 0.0
+                sv = 0.0
+                for b in range(2):
+                    jj, wy = (j1, wy1) if b else (j0, wy0)
+                    if wy == 0.0:
+                        continue
+                    for a in range(2):
+                        ii, wx = (i1, wx1) if a else (i0, wx0)
+                        if wx == 0.0:
+                            continue
+                        c = dof_c[k, jj, ii]
+                        if c >= 0:
+                            su += wy * wx * y[c]
+                            sv += wy * wx * y[n_c + c]
+                x[d] = su
+                x[n_f + d] = sv
+    return x
+
+
+@numba.njit(cache=True)
+def restrict_gradient(g, dof_f, dof_c, n_c, fy, fx, periodic):
+    """Pᵀ·g: the gradient with respect to the coarse unknowns of E(P·y), float64[2 n_c]."""
+    nz, ny, nx = dof_f.shape
+    ncy, ncx = dof_c.shape[1], dof_c.shape[2]
+    n_f = g.size // 2
+    out = np.zeros(2 * n_c)
+    for k in range(nz):
+        for j in range(ny):
+            j0, j1, wy0, wy1 = _weights(j, fy, ncy, periodic)
+            for i in range(nx):
+                d = dof_f[k, j, i]
+                if d < 0 or (k > 0 and dof_f[k - 1, j, i] == d):
+                    continue
+                i0, i1, wx0, wx1 = _weights(i, fx, ncx, periodic)
+                for b in range(2):
+                    jj, wy = (j1, wy1) if b else (j0, wy0)
+                    if wy == 0.0:
+                        continue
+                    for a in range(2):
+                        ii, wx = (i1, wx1) if a else (i0, wx0)
+                        if wx == 0.0:
+                            continue
+                        c = dof_c[k, jj, ii]
+                        if c >= 0:
+                            out[c] += wy * wx * g[d]
+                            out[n_c + c] += wy * wx * g[n_f + d]
+    return out
+
+
+@numba.njit(cache=True)
+def inject(x, dof_f, dof_c, n_c, fy, fx):
+    """Coarse unknowns (float64[2 n_c]) taking the fine values at the coarse nodes (0 where the fine
+    node has none)."""
+    nz, ncy, ncx = dof_c.shape
+    n_f = x.size // 2
+    y = np.zeros(2 * n_c)
+    for k in range(nz):
+        for j in range(ncy):
+            for i in range(ncx):
+                c = dof_c[k, j, i]
+                if c < 0 or (k > 0 and dof_c[k - 1, j, i] == c):
+                    continue
+                d = dof_f[k, j * fy, i * fx]
+                if d >= 0:
+                    y[c] = x[d]
+                    y[n_c + c] = x[n_f + d]
+    return y
