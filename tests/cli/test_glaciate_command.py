@@ -63,7 +63,9 @@ def test_sia_valley_glacier_deepens_its_floor_more_than_its_sides(tmp_path: Path
     result = run_cli("glaciate", valley_dem, out, "--ela", ELA, "--duration", 2000, "--dt", 20,
                      "--iceflow", "sia", "--sliding-C", 1e5, "--k-e", 1e-4, "--k-q", 0, "--ice", ice,
                      "--sliding", tmp_path / "ub.tif", "--velocity", tmp_path / "v.tif",
-                     "--snapshot-every", 1000, "--dtype", "float64", "--preview", tmp_path / "bed.png")
+                     "--snapshot-every", 1000, "--dtype", "float64", "--preview", tmp_path / "bed.png",
+                     # 001 Eq. 2 as printed: the valley's head is a 51° wall that feeds the glacier
+                     "--snow-slope-min", 90, "--snow-slope-max", 90)
     assert result.returncode == 0, result.stderr
     before, after = read_terrain(valley_dem).elevation, read_terrain(out).elevation
     lowering = before - after

@@ -105,7 +105,9 @@ class CoupledParams:
     ``flow``: rheology, sliding and lattice (``blatter.FlowParams``; SIA uses A, n, ρ, g, C, σ).
     ``iceflow``: ``"blatter"`` or ``"sia"``; ``transport``: ``"multiscale"`` or ``"explicit"``;
     ``allow_substeps``: cut unstable explicit steps into sub-steps (else ``UnstableStep``).
-    ``beta`` (1/y), ``p_max`` (m/y): 001 Eq. 2, number or raster. ``erosion``: erode the bed;
+    ``beta`` (1/y), ``p_max`` (m/y): 001 Eq. 2, number or raster; ``snow_slope_min``,
+    ``snow_slope_max`` (degrees): the surface slopes between which accumulation falls from all
+    to none (``massbalance``). ``erosion``: erode the bed;
     ``k_e`` (m^(1−l)·y^(l−1)), ``abrasion_exponent`` l, ``k_q`` (1): 001 §6.1.
     ``flow_rtol``, ``flow_max_iter``, ``flow_energy_rtol``: the velocity re-solve policy (module
     docstring).
@@ -123,6 +125,8 @@ class CoupledParams:
     k_e: float | np.ndarray = 1.3e-7
     abrasion_exponent: float = 2.02
     k_q: float | np.ndarray = 3.2e-5
+    snow_slope_min: float = massbalance.SNOW_SLOPES[0]
+    snow_slope_max: float = massbalance.SNOW_SLOPES[1]
     flow_rtol: float = FLOW_RTOL
     flow_max_iter: int = FLOW_MAX_ITER
     flow_energy_rtol: float = FLOW_ENERGY_RTOL
@@ -142,6 +146,9 @@ class CoupledParams:
                 and 0.0 <= self.flow_energy_rtol < 0.01):
             raise ValueError("flow_rtol must be in (0, 1), flow_max_iter ≥ 0 and flow_energy_rtol "
                              "in [0, 0.01)")
+        if self.snow_slope_min > self.snow_slope_max:
+            raise ValueError(f"snow_slope_min ({self.snow_slope_min:g}°) must not exceed "
+                             f"snow_slope_max ({self.snow_slope_max:g}°)")
         if self.iceflow == "sia":
             if self.flow.sigma <= 1.0:
                 raise ValueError("SIA sliding needs a sliding exponent σ > 1")
@@ -297,8 +304,10 @@ def never_glaciated(bed: np.ndarray, thickness: np.ndarray, grid: Grid, ela: Ela
 
 
 def _mass_balance(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela) -> np.ndarray:
-    m = massbalance.mass_balance(state.bed + state.thickness, ela_at(ela, state.time), params.beta,
-                                 params.p_max)
+    surface = state.bed + state.thickness
+    m = massbalance.mass_balance(surface, ela_at(ela, state.time), params.beta, params.p_max,
+                                 massbalance.surface_slope(surface, grid.dx, grid.dy),
+                                 (params.snow_slope_min, params.snow_slope_max))
     return np.where(grid.valid, m, 0.0)
 
 
