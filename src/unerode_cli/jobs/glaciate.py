@@ -32,7 +32,7 @@ from unerode_cli.io.grid_rasters import read_on_grid, write_bands
 from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
-from unerode_cli.run.divergence import DivergenceGuard
+from unerode_cli.run.divergence import DivergenceGuard, max_rate
 from unerode_cli.run.outputs import (
     TIME_TAG,
     Outputs,
@@ -289,7 +289,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         hint = "lower --dt, or raise --sliding-C if the ice slides at km/y"
         bed_guard = DivergenceGuard(terrain.elevation, hint=hint)
         surface_guard = DivergenceGuard(terrain.elevation + prepared.thickness,
-                                        uplift_rate=_largest(prepared.params.p_max), hint=hint)
+                                        uplift_rate=max_rate(prepared.params.p_max), hint=hint)
 
         def check(new: coupled.GlacierState, report: coupled.StepReport, k: int) -> None:
             where = f"in step {k} (t = {new.time:g} y)"
@@ -336,12 +336,6 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                     f"{result.max_residual:.2g}, "
                     f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
     return summary
-
-
-def _largest(value: float | np.ndarray) -> float:
-    """max of a number or a raster (NaN ignored)."""
-    values = np.asarray(value, dtype=np.float64)
-    return float(np.nanmax(values)) if values.size else 0.0
 
 
 def _step_info(report: coupled.StepReport) -> str:
