@@ -102,7 +102,9 @@ def test_a_diverging_glacier_run_exits_1_and_writes_nothing(tmp_path: Path) -> N
     dem = crop(VALLEY, 64, tmp_path / "small.tif")
     before = files_in(tmp_path)
     result = run_cli("glaciate", dem, tmp_path / "out.tif", "--ela", 800, "--duration", 30,
-                     "--iceflow", "sia", "--snapshot-every", 10, "--preview", tmp_path / "out.png")
+                     "--iceflow", "sia", "--snapshot-every", 10, "--preview", tmp_path / "out.png",
+                     # 001 Eq. 2 as printed: snow on the crop's steep walls feeds the runaway SIA ice
+                     "--snow-slope-min", 90, "--snow-slope-max", 90)
     assert result.returncode == 1, result.stderr
     assert "diverged" in result.stderr and "Traceback" not in result.stderr
     assert files_in(tmp_path) == before
