@@ -571,12 +571,15 @@ def _weights(i, f, nc, periodic):
 
 
 @numba.njit(cache=True)
-def prolong(y, dof_c, dof_f, n_f, fy, fx, periodic):
-    """Fine unknowns (float64[2 n_f]) interpolated from the coarse unknowns y (``dof_c``)."""
+def transfer_entries(dof_f, dof_c, fy, fx, periodic):
+    """The bilinear prolongation P as entries (fine unknown, coarse unknown, weight), int64[E],
+    int64[E], float64[E], in the order of the fine nodes: P·y and Pᵀ·g both read them."""
     nz, ny, nx = dof_f.shape
     ncy, ncx = dof_c.shape[1], dof_c.shape[2]
-    n_c = y.size // 2
-    x = np.zeros(2 * n_f)
+    fine = np.empty(4 * dof_f.size, dtype=np.int64)
+    coarse = np.empty(4 * dof_f.size, dtype=np.int64)
+    weight = np.empty(4 * dof_f.size)
+    e = 0
     for k in range(nz):
         for j in range(ny):
             j0, j1, wy0, wy1 = _weights(j, fy, ncy, periodic)
@@ -585,8 +588,6 @@ def prolong(y, dof_c, dof_f, n_f, fy, fx, periodic):
                 if d < 0 or (k > 0 and dof_f[k - 1, j, i] == d):
                     continue
                 i0, i1, wx0, wx1 = _weights(i, fx, ncx, periodic)
-                su = 0.0
-                sv = 0.0
                 for b in range(2):
                     jj, wy = (j1, wy1) if b else (j0, wy0)
                     if wy == 0.0:
@@ -597,40 +598,32 @@ def prolong(y, dof_c, dof_f, n_f, fy, fx, periodic):
                             continue
                         c = dof_c[k, jj, ii]
                         if c >= 0:
-                            su += wy * wx * y[c]
-                            sv += wy * wx * y[n_c + c]
-                x[d] = su
-                x[n_f + d] = sv
+                            fine[e], coarse[e], weight[e] = d, c, wy * wx
+                            e += 1
+    return fine[:e], coarse[:e], weight[:e]
+
+
+@numba.njit(cache=True)
+def prolong(y, dof_c, dof_f, n_f, fy, fx, periodic):
+    """Fine unknowns (float64[2 n_f]) interpolated from the coarse unknowns y (``dof_c``)."""
+    fine, coarse, weight = transfer_entries(dof_f, dof_c, fy, fx, periodic)
+    n_c = y.size // 2
+    x = np.zeros(2 * n_f)
+    for e in range(fine.size):
+        x[fine[e]] += weight[e] * y[coarse[e]]
+        x[n_f + fine[e]] += weight[e] * y[n_c + coarse[e]]
     return x
 
 
 @numba.njit(cache=True)
 def restrict_gradient(g, dof_f, dof_c, n_c, fy, fx, periodic):
     """Pᵀ·g: the gradient with respect to the coarse unknowns of E(P·y), float64[2 n_c]."""
-    nz, ny, nx = dof_f.shape
-    ncy, ncx = dof_c.shape[1], dof_c.shape[2]
+    fine, coarse, weight = transfer_entries(dof_f, dof_c, fy, fx, periodic)
     n_f = g.size // 2
     out = np.zeros(2 * n_c)
-    for k in range(nz):
-        for j in range(ny):
-            j0, j1, wy0, wy1 = _weights(j, fy, ncy, periodic)
-            for i in range(nx):
-                d = dof_f[k, j, i]
-                if d < 0 or (k > 0 and dof_f[k - 1, j, i] == d):
-                    continue
-                i0, i1, wx0, wx1 = _weights(i, fx, ncx, periodic)
-                for b in range(2):
-                    jj, wy = (j1, wy1) if b else (j0, wy0)
-                    if wy == 0.0:
-                        continue
-                    for a in range(2):
-                        ii, wx = (i1, wx1) if a else (i0, wx0)
-                        if wx == 0.0:
-                            continue
-                        c = dof_c[k, jj, ii]
-                        if c >= 0:
-                            out[c] += wy * wx * g[d]
-                            out[n_c + c] += wy * wx * g[n_f + d]
+    for e in range(fine.size):
+        out[coarse[e]] += weight[e] * g[fine[e]]
+        out[n_c + coarse[e]] += weight[e] * g[n_f + fine[e]]
     return out
 
 
