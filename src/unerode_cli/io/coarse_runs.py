@@ -28,6 +28,12 @@ def fluxes_folder(output: Path) -> Path:
     return output.with_name(f"{output.stem}_fluxes")
 
 
+def coarse_run_folder(path: Path) -> Path:
+    """The nesting folder that ``--inflow-from PATH`` names: PATH itself when a folder, else the
+    ``_fluxes`` folder beside the coarse run's output PATH."""
+    return path if path.is_dir() else fluxes_folder(path)
+
+
 def field_path(folder: Path, name: str, age_ka: float) -> Path:
     return folder / f"{name}_{age_ka:g}ka.tif"
 
@@ -91,7 +97,7 @@ class CoarseRun:
 def read_coarse_run(path: Path) -> CoarseRun:
     """The coarse run of ``--inflow-from PATH``: its ``_fluxes`` folder, or its output raster
     (the folder beside it); every age must have its three rasters."""
-    folder = path if path.is_dir() else fluxes_folder(path)
+    folder = coarse_run_folder(path)
     if not path.exists():
         raise InputError(f"--inflow-from {path} does not exist.")
     if not folder.is_dir():

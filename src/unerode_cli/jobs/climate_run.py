@@ -32,13 +32,20 @@ from unerode_cli.climate.uplift import FACTOR_COLUMN, RATE_COLUMN, UpliftHistory
 from unerode_cli.errors import InputError
 from unerode_cli.io.checkpoints import read_checkpoint, write_checkpoint
 from unerode_cli.io.chronology_files import read_age_table, read_series
-from unerode_cli.io.coarse_runs import check_fluxes_folder, fluxes_folder, read_coarse_run, write_state
+from unerode_cli.io.coarse_runs import (
+    check_fluxes_folder,
+    coarse_run_folder,
+    fluxes_folder,
+    read_coarse_run,
+    write_state,
+)
 from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.grid_rasters import load_on_grid
 from unerode_cli.io.paths import atomic_path, check_output, file_sha256
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.yaml_files import read_yaml_mapping
+from unerode_cli.processes.fluvial import Inflow
 from unerode_cli.processes.inflow import InflowHistory
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import COARSE, BaseLevels, base_levels_from_options, edge_base_table
@@ -223,11 +230,6 @@ def _forcing(job: ClimateJob, steps: int, chronology: Series, sea: Series | None
     return Forcing(end, mid, np.asarray(phases_on_grid)[pick], sea_mid, sea_end, sea_start)
 
 
-def fluxes_path(output: Path) -> Path:
-    """The folder of the nesting rasters of ``--write-fluxes``."""
-    return fluxes_folder(output)
-
-
 def _fingerprint(job: ClimateJob) -> str:
     """Hash of everything that decides the result (inputs' content included), to refuse a
     --resume from a checkpoint of another run."""
@@ -265,7 +267,7 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
     check_output(timeline_path(job.output), replace, (job.source,))
     _check_nesting_options(job, names)
     if job.write_fluxes:
-        check_fluxes_folder(fluxes_path(job.output), job.kept_ages(), replace)
+        check_fluxes_folder(fluxes_folder(job.output), job.kept_ages(), replace)
     check_png(chronology_png_path(job.output), replace, (job.source,))
     if job.checkpoint_every < 1:
         raise InputError("--checkpoint-every must be at least 1 step.")
@@ -337,7 +339,7 @@ def _coarse_files(job: ClimateJob) -> list[Path]:
     """The nesting rasters of ``--inflow-from``, for the fingerprint."""
     if job.inflow_from is None:
         return []
-    folder = job.inflow_from if job.inflow_from.is_dir() else fluxes_folder(job.inflow_from)
+    folder = coarse_run_folder(job.inflow_from)
     return sorted(folder.glob("*.tif")) if folder.is_dir() else []
 
 
@@ -433,10 +435,9 @@ def _domain_mean(value: float | np.ndarray, terrain: Terrain) -> float:
 
 
 def _processes(prepared: PreparedClimateRun, values: dict[str, Any], sea_end: float,
-               mid_ka: float) -> list:
+               inflow: Inflow | None) -> list:
     job = prepared.job
     bounds = prepared.base_levels.boundaries(sea_end if job.sea_outlets else None)
-    inflow = None if prepared.inflow is None else prepared.inflow.at(mid_ka)
     options = {"scheme": job.scheme, "method": job.method,
                "constraints": thermal_constraints(job.constraints), "inflow": inflow}
     return build_processes(prepared.names, prepared.terrain, bounds, values, options)
@@ -468,7 +469,8 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
         prepared.base_levels.set_levels(h, terrain.elevation, sea_end - forcing.sea_start,
                                         float(forcing.end_ka[k]), values.get("uplift", 0.0), signed_dt)
         before = h.copy()
-        processes = _processes(prepared, values, sea_end, float(forcing.mid_ka[k]))
+        inflow = None if prepared.inflow is None else prepared.inflow.at(float(forcing.mid_ka[k]))
+        processes = _processes(prepared, values, sea_end, inflow)
         h, report = run(h, processes, signed_dt, 1, job.allow_substeps, None, note_once)
         guard.check(h, (k + 1) * signed_dt, f"at {forcing.end_ka[k]:g} ka")
         change = np.abs(h - before)[~terrain.nodata_mask]
@@ -476,8 +478,7 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
                      "sea_level_m": sea_end, **scheduled,
                      "eroded_m3": sum(b.eroded for b in report.budgets.values()),
                      "deposited_m3": sum(b.deposited for b in report.budgets.values()),
-                     **(_inflow_columns(prepared, report, float(forcing.mid_ka[k]))
-                        if prepared.inflow is not None else {}),
+                     **(_inflow_columns(report, inflow) if inflow is not None else {}),
                      "mean_abs_dh_m": float(change.mean()), "max_abs_dh_m": float(change.max())})
         if round(float(forcing.end_ka[k]), 9) in snapshots:
             _save_state(prepared, h, k, snapshot_path(job.output, float(forcing.end_ka[k])))
@@ -502,16 +503,16 @@ def run_climate(prepared: PreparedClimateRun, on_step=None, on_note=None) -> str
     return (f"{COMMAND}: {prepared.steps} steps of {job.dt:g} y from {job.from_ka:g} to "
             f"{job.to_ka:g} ka; wrote {job.output}, {timeline_path(job.output).name}, "
             f"{chronology_png_path(job.output).name} and {len(job.snapshots_ka)} snapshot(s)"
-            + (f", and the nesting rasters in {fluxes_path(job.output).name}/" if job.write_fluxes else "")
+            + (f", and the nesting rasters in {fluxes_folder(job.output).name}/" if job.write_fluxes else "")
             + f"; {prepared.base_levels.summary()}"
             + (f"; {prepared.nesting.summary()}" if prepared.nesting is not None else ""))
 
 
-def _inflow_columns(prepared: PreparedClimateRun, report: Any, mid_ka: float) -> dict[str, float]:
+def _inflow_columns(report: Any, inflow: Inflow) -> dict[str, float]:
     """Timeline columns of a run with inflow: the sediment volume brought in over the step (m³,
     negative backward) and the water discharge entering (m³/y, at the step's middle age)."""
     return {"inflow_m3": sum(b.inflow for b in report.budgets.values()),
-            "inflow_discharge_m3_per_y": float(prepared.inflow.at(mid_ka).discharge.sum())}
+            "inflow_discharge_m3_per_y": float(inflow.discharge.sum())}
 
 
 def _write_fluxes(prepared: PreparedClimateRun, processes: list, k: int, before: np.ndarray,
@@ -522,7 +523,7 @@ def _write_fluxes(prepared: PreparedClimateRun, processes: list, k: int, before:
     job, forcing = prepared.job, prepared.forcing
     fluvial = next(p for p in processes if p.name == "fluvial")
     discharge, sediment_flux = fluvial.last_fluxes()
-    folder = fluxes_path(job.output)
+    folder = fluxes_folder(job.output)
     end = float(forcing.end_ka[k])
     if k == 0:
         write_state(folder, prepared.terrain.with_elevation(before), job.from_ka, discharge,

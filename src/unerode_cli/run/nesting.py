@@ -88,13 +88,15 @@ def nest(coarse: CoarseRun, fine: Terrain, outlets: np.ndarray, nodes: np.ndarra
     node_rows, node_cols = np.nonzero(nodes)
     entries: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     levels = []
+    footprint = None
     for age in used:
         if on_age is not None:
             on_age(float(age))
         state = coarse.state(float(age))
-        if age == used[0]:
+        if footprint is None:  # the coarse grid is the same at every age
             _check_cover(state.terrain, fine, coarse)
-        entries.append(_crossings(state, fine, free))
+            footprint = _footprint(state.terrain, fine)
+        entries.append(_crossings(state, fine, footprint, free))
         levels.append(_sample(state.terrain, fine, node_rows, node_cols))
     cells = np.unique(np.concatenate([entry[0] for entry in entries]))
     q = np.zeros((used.size, cells.size))
@@ -144,12 +146,12 @@ def _footprint(coarse: Terrain, fine: Terrain) -> np.ndarray:
     return inside & ~fine.nodata_mask[r, c] & ~coarse.nodata_mask
 
 
-def _crossings(state: CoarseState, fine: Terrain,
+def _crossings(state: CoarseState, fine: Terrain, footprint: np.ndarray,
                free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The fine cells (flat indices, int64[M], sorted) where water and sediment cross into the
-    fine map at one age, with their Q and Q_s (m³/y, float64[M])."""
+    fine map's ``footprint`` (bool[cny, cnx], :func:`_footprint`) at one age, with their Q and
+    Q_s (m³/y, float64[M])."""
     coarse = state.terrain
-    footprint = _footprint(coarse, fine)
     grid = coarse.grid
     try:
         routing = route(coarse.elevation, grid, outlet_mask(grid, "all"), "mfd")
