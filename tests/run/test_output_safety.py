@@ -210,6 +210,30 @@ def test_an_interrupted_run_names_the_files_it_left(tmp_path: Path, ramp: Path) 
     assert rerun.returncode == 0, rerun.stderr
 
 
+def test_an_interrupt_between_a_temporary_and_its_clean_up_leaves_nothing(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C may land after ``mkdtemp`` made a staging folder and before its ``try``: the
+    command's error handler still removes what this process left beside its outputs."""
+    import typer
+
+    from unerode_cli.cli.errors import EXIT_INTERRUPTED, reported_errors
+
+    out = tmp_path / "out.tif"
+    made_then_interrupted = paths.tempfile.mkdtemp
+
+    def mkdtemp(**kwargs: object) -> str:
+        made_then_interrupted(**kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(paths.tempfile, "mkdtemp", mkdtemp)
+    with pytest.raises(typer.Exit) as stopped, reported_errors(0):
+        paths.check_output(out, overwrite=False)
+        with paths.staging_folder(out):
+            pass
+    assert stopped.value.exit_code == EXIT_INTERRUPTED
+    assert not list(tmp_path.iterdir())
+
+
 @pytest.mark.skipif(not LR04.exists(), reason="needs ../shared/data")
 def test_a_checkpoint_left_behind_is_continued_or_replaced_never_ignored(tmp_path: Path, ramp: Path) -> None:
     out = tmp_path / "past.tif"

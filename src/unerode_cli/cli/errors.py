@@ -22,7 +22,7 @@ def reported_errors(verbosity: int) -> Iterator[None]:
     """Bad input → exit 2, a run that failed → exit 1 (the files it wrote are removed), anything
     else → exit 1; Ctrl-C → 130 with the list of files written before it. A traceback only
     with ``-v``."""
-    from unerode_cli.io.paths import forget_writes
+    from unerode_cli.io.paths import forget_writes, remove_own_temporaries
 
     forget_writes()
     try:
@@ -42,6 +42,8 @@ def reported_errors(verbosity: int) -> Iterator[None]:
         hint = "" if verbosity > 0 else " (run with -v for the traceback)"
         _say(_joined(f"error: {type(exc).__name__}: {exc}{hint}", _written_note()), verbosity)
         raise typer.Exit(EXIT_RUNTIME) from None
+    finally:
+        remove_own_temporaries()
 
 
 def _joined(message: str, note: str) -> str:

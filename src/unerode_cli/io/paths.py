@@ -74,13 +74,32 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
     process, so clearing many outputs in one folder stays cheap."""
     removed = []
     for candidate in _stale_temporaries(path.parent).pop((path.stem, path.suffix), []):
-        if candidate.is_dir():
-            shutil.rmtree(candidate, ignore_errors=True)
-        else:
-            with contextlib.suppress(FileNotFoundError):
-                candidate.unlink()
+        _delete(candidate)
         removed.append(candidate)
     return removed
+
+
+def remove_own_temporaries() -> list[Path]:
+    """Delete the temporaries this process left beside its outputs (an interrupt may land
+    between a temporary's creation and its clean-up); returns what was deleted."""
+    folders = {path.parent for path in _CLEARED} | {path.parent for path in _WRITTEN}
+    removed = []
+    for folder in folders:
+        for candidate in folder.iterdir() if folder.is_dir() else ():
+            match = _TEMPORARY.match(candidate.name)
+            if match and int(match["pid"]) == os.getpid():
+                _delete(candidate)
+                removed.append(candidate)
+    return removed
+
+
+def _delete(temporary: Path) -> None:
+    """Remove a temporary file or staging folder (gone already is fine)."""
+    if temporary.is_dir():
+        shutil.rmtree(temporary, ignore_errors=True)
+    else:
+        with contextlib.suppress(FileNotFoundError):
+            temporary.unlink()
 
 
 _TEMPORARY = re.compile(r"^\.(?P<stem>.+)\.(?P<pid>\d+)\.[^.]+\.part(?P<suffix>\.[^.]*)?(?:\.d)?$")
