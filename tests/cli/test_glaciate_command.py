@@ -98,7 +98,8 @@ def test_blatter_run_writes_the_velocities_of_the_final_geometry(tmp_path: Path)
                                                    ).astype(np.float32), _transform(300.0))
     out, velocity, sliding = tmp_path / "bed.tif", tmp_path / "v_s.tif", tmp_path / "u_b.tif"
     result = run_cli("glaciate", dem, out, "--ela", ELA, "--duration", 60, "--dt", 30, "--layers", 5,
-                     "--sliding-C", "inf", "--velocity", velocity, "--sliding", sliding)
+                     "--sliding-C", "inf", "--velocity", velocity, "--sliding", sliding,
+                     "--no-hillslope", "--no-debris", "--no-fluvial")
     assert result.returncode == 0, result.stderr
     np.testing.assert_array_equal(read_terrain(out).elevation, read_terrain(dem).elevation)  # no sliding
     assert read_terrain(sliding).elevation.max() == 0.0
@@ -164,13 +165,27 @@ def test_ismip_hom_b_diagnostic_matches_the_solver_and_the_published_models(tmp_
 
 def test_ela_above_every_peak_makes_no_ice_and_says_so(tmp_path: Path, valley_dem: Path) -> None:
     out, ice = tmp_path / "bed.tif", tmp_path / "ice.tif"
-    result = run_cli("glaciate", valley_dem, out, "--ela", 5000, "--duration", 1000, "--ice", ice)
+    result = run_cli("glaciate", valley_dem, out, "--ela", 5000, "--duration", 1000, "--ice", ice,
+                     "--no-hillslope", "--no-debris", "--no-fluvial")
     assert result.returncode == 0, result.stderr
     assert "note:" in result.stderr and "no ice" in result.stderr
     np.testing.assert_array_equal(read_terrain(out).elevation, read_terrain(valley_dem).elevation)
     assert (read_terrain(ice).elevation == 0).all()
     stats = json.loads((tmp_path / "bed.tif.json").read_text())["statistics"]
     assert stats["ice_volume_series"]["ice_volume_m3"] == [0.0, 0.0] and "note" in stats
+
+
+def test_without_ice_the_ice_free_processes_still_shape_the_bed(tmp_path: Path, valley_dem: Path) -> None:
+    out, ice = tmp_path / "bed.tif", tmp_path / "ice.tif"
+    result = run_cli("glaciate", valley_dem, out, "--ela", 5000, "--duration", 1000, "--dt", 100,
+                     "--ice", ice)
+    assert result.returncode == 0, result.stderr
+    assert "no ice forms and only the processes of ice-free ground change the bed" in result.stderr
+    change = read_terrain(out).elevation - read_terrain(valley_dem).elevation
+    assert (read_terrain(ice).elevation == 0).all()
+    assert 1e-3 < np.abs(change).max() < 0.1 * 1000          # at most 0.1 m/y anywhere
+    removed = json.loads((tmp_path / "bed.tif.json").read_text())["statistics"]["ice_free_removed_m3"]
+    assert removed["debris"] >= 0.0 and removed["fluvial"] > 0.0  # neither deposits
 
 
 def test_ela_time_table(tmp_path: Path, valley_dem: Path) -> None:

@@ -37,8 +37,9 @@ def files_in(folder: Path) -> set[str]:
 
 def _plausible(tmp_path: Path, dem: Path, out: Path, years: float, *extra: object) -> dict:
     """Run glaciate with the default physics and check what every real-DEM run must meet: exit
-    0, nodata kept, bed lowered by at most 0.1 m/y anywhere (measured glacial erosion is
-    0.01–10 mm/y), surface speeds below 1000 m/y. Returns the arrays for further checks."""
+    0, nodata kept, bed lowered (or raised, where hill slopes deposit at their foot) by at most
+    0.1 m/y anywhere (measured glacial erosion is 0.01–10 mm/y, rock-wall retreat 0.1–2 mm/y),
+    surface speeds below 1000 m/y. Returns the arrays for further checks."""
     velocity, ice = out.with_name(out.stem + "_v.tif"), out.with_name(out.stem + "_ice.tif")
     result = run_cli("glaciate", dem, out, "--ela", 2900, "--duration", years, "--dt", 20,
                      "--velocity", velocity, "--ice", ice, "--dtype", "float64", *extra)
@@ -46,7 +47,7 @@ def _plausible(tmp_path: Path, dem: Path, out: Path, years: float, *extra: objec
     before, after = read_terrain(dem).elevation, read_terrain(out).elevation
     np.testing.assert_array_equal(np.isnan(after), np.isnan(before))  # voids stay voids
     lowering = (before - after)[np.isfinite(before)]
-    assert lowering.min() >= 0.0 and lowering.max() / years < 0.1
+    assert np.abs(lowering).max() / years < 0.1
     h = read_terrain(ice).elevation
     with rasterio.open(velocity) as src:
         bands = src.read(masked=True).astype(float)

@@ -17,6 +17,7 @@ from unerode_cli.cli.flow import flow
 from unerode_cli.cli.glaciate import glaciate
 from unerode_cli.cli.hypsometry import hypsometry
 from unerode_cli.cli.info import info
+from unerode_cli.cli.landforms import landforms
 from unerode_cli.cli.particle_erode import particle_erode
 from unerode_cli.cli.preview import preview
 from unerode_cli.cli.synth import synth
@@ -26,7 +27,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "info": info, "convert": convert, "preview": preview, "synth": synth, "flow": flow,
     "erode": erode, "unerode": unerode, "diff": diff, "hypsometry": hypsometry,
     "glaciate": glaciate, "climate-run": climate_run, "compare-terraces": compare_terraces,
-    "particle-erode": particle_erode,
+    "particle-erode": particle_erode, "landforms": landforms,
 }
 
 

@@ -25,7 +25,7 @@ from unerode_cli.cli.options import (
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
 from unerode_cli.cli.values import Number
-from unerode_cli.glacier import erosion, massbalance
+from unerode_cli.glacier import cycle, erosion, massbalance
 
 
 class IceFlow(str, Enum):
@@ -46,7 +46,9 @@ class Edges(str, Enum):
 PARAMETER_PANELS = {
     "Mass balance (001 Eq. 2)": tuple(s for s in massbalance.PARAMETERS if s.name != "ela"),
     "Glacial erosion (001 §6.1)": erosion.PARAMETERS,
+    "Ice-free ground (001 §6.2–6.4) and uplift": cycle.PARAMETERS,
 }
+GROUND_PANEL = "Ice-free ground (001 §6.2–6.4) and uplift"
 FLOW_PANEL = "Ice flow (001 §3–4)"
 OUTPUT_PANEL = "Side outputs"
 
@@ -68,6 +70,11 @@ def glaciate(
     transport: Annotated[Transport, typer.Option(help="Ice transport (001 Eq. 1): multiscale (adaptive long steps, 001 §5) or explicit (sub-stepped at the stability limit).")] = Transport.multiscale,
     no_substep: Annotated[bool, typer.Option("--no-substep", help="With --transport explicit: refuse a --dt above the stability limit instead of sub-stepping it.")] = False,
     erode: Annotated[bool, typer.Option("--erosion/--no-erosion", help="Erode the bed by abrasion and quarrying under the sliding ice (001 §6.1).")] = True,
+    no_hillslope: Annotated[bool, typer.Option("--no-hillslope", help="Switch off hill-slope diffusion (001 §6.4), which acts where the ice is thin.", rich_help_panel=GROUND_PANEL)] = False,
+    no_debris: Annotated[bool, typer.Option("--no-debris", help="Switch off debris flow (001 Eq. 8), which acts where the ice is thin.", rich_help_panel=GROUND_PANEL)] = False,
+    no_fluvial: Annotated[bool, typer.Option("--no-fluvial", help="Switch off fluvial erosion k_f·A^m·S^n (001 §6.3), which acts where the ice is thin.", rich_help_panel=GROUND_PANEL)] = False,
+    shield_thickness: Annotated[float, typer.Option("--shield-thickness", parser=Number("m", 0.0), help="Ice thicker than this (m) shields the bed from the ice-free processes (001 §6: 3 m).", rich_help_panel=GROUND_PANEL)] = cycle.SHIELD_THICKNESS,
+    drainage_every: Annotated[int, typer.Option("--drainage-every", min=1, help="Steps between updates of the drainage of debris flow and rivers (001 §6: 20).", rich_help_panel=GROUND_PANEL)] = cycle.DRAINAGE_EVERY,
     ice_thickness: Annotated[Path | None, typer.Option("--ice-thickness", help="Ice thickness (m) on the DEM's grid: the initial ice, or with --diagnostic the geometry to solve.")] = None,
     diagnostic: Annotated[bool, typer.Option("--diagnostic", help="Solve the velocity of DEM + --ice-thickness once (no time stepping, relative residual 1e-5) and write --velocity and --sliding.")] = False,
     ice: Annotated[Path | None, typer.Option("--ice", help="Write the final ice thickness (m).", rich_help_panel=OUTPUT_PANEL)] = None,
@@ -96,7 +103,10 @@ def glaciate(
             layers=layers, sliding_c=sliding_c, sliding_sigma=sliding_sigma, rate_factor=rate_factor,
             boundary=boundary.value, background_slope=background_slope, transport=transport.value,
             allow_substeps=not no_substep, erosion=erode, ice_thickness=ice_thickness, ice=ice,
-            velocity=velocity, sliding=sliding, snapshot_every=snapshot_every, diagnostic=diagnostic,
+            velocity=velocity, sliding=sliding, snapshot_every=snapshot_every, hillslope=not no_hillslope,
+            debris=not no_debris, fluvial=not no_fluvial, shield_thickness=shield_thickness,
+            drainage_every=drainage_every,
+            diagnostic=diagnostic,
             band=band, channel=channel, dtype=dtype.value, cog=cog, co=co, overwrite=overwrite,
             preview=preview, parameter_values=parameter_values or {},
         )

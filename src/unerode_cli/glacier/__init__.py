@@ -1,5 +1,5 @@
-"""Glaciers (001 §3–6): mass balance, ice flow (Blatter–Pattyn and SIA), ice transport and
-glacial erosion.
+"""Glaciers (001 §3–7): mass balance, ice flow (Blatter–Pattyn and SIA), ice transport,
+glacial erosion, and the glacial cycles that couple them with the other processes.
 
 Modules, one job each:
 
@@ -11,7 +11,10 @@ Modules, one job each:
 - ``transport``: ∂H/∂t = M − ∇·(H ū) (001 Eq. 1), limited upwind fluxes in ``transport_kernels``;
 - ``multiscale``: long steps of that transport, δt(x) and a Gaussian stack of T (001 §5);
 - ``erosion``: abrasion and quarrying from the sliding velocity (001 §6.1).
-- ``coupled``: the coupled time stepping of all of them (001 §3.2).
+- ``coupled``: the coupled time stepping of all of them (001 §3.2);
+- ``cycle``: the processes of ice-free ground after each glacier step (001 §6: hill slope, debris
+  flow, rivers where the ice is thinner than 3 m) and uplift;
+- ``lakes``: water in the depressions of the bed that ice does not fill (001 §7).
 
 Conventions: x along columns (east), y along rows (increasing row index, i.e. south on a
 north-up raster); velocity components (u, v) follow the same axes. Lengths in metres, time in

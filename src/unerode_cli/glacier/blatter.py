@@ -333,6 +333,12 @@ MG_PRE, MG_POST, MG_COARSE = 2, 2, 10
 #: Contraction factor of E − E_min per cycle assumed after the first cycle of a solve (measured:
 #: 0.2–0.5 on the thick bench ice cap, 0.9 on the thin ice it leaves when it melts back).
 MG_CONTRACTION = 0.9
+#: Contraction of E − E_min by the first cycle of a solve warm-started from the velocities of a
+#: nearby geometry (the previous time step): that cycle removes the change of geometry, whose error
+#: is short-ranged. Measured (gap to a converged solve after / before the cycle): 0.01–0.03 on the
+#: melting bench ice cap (128², dt 10 y, gaps of 14–38 % before it), 0.17–0.20 on a 128² crop of
+#: Grindelwald at ELA 2900 m (dt 20 y, gaps of 0.3–0.4 %).
+MG_WARM_CONTRACTION = 0.25
 #: Smallest contraction factor ρ the energy rule takes from two decreases: they are irregular
 #: (on thin ice 1.65, 0.35, 0.21, 0.35, 0.22 … % of |E| from cycle 2 on).
 MG_MIN_CONTRACTION = 0.5
@@ -586,10 +592,12 @@ def solve(
             # the distance left to the minimum from this cycle's decrease and the contraction
             # factor ρ of the last two (at least MG_MIN_CONTRACTION); the first cycle removes the
             # change of geometry much faster than the next ones, so ρ = MG_CONTRACTION until a
-            # third cycle gives two decreases after it
-            ratio = (previous - energy) / decrease if cycles >= 2 else MG_CONTRACTION
+            # third cycle gives two decreases after it, except after the first cycle of a warm start
+            if cycles >= 2:
+                contraction = min(max((previous - energy) / decrease, MG_MIN_CONTRACTION), 0.99)
+            else:
+                contraction = MG_WARM_CONTRACTION if cycles == 0 and initial is not None else MG_CONTRACTION
             decrease = previous - energy
-            contraction = min(max(ratio, MG_MIN_CONTRACTION), 0.99)
             settled = decrease * contraction / (1.0 - contraction) <= energy_rtol * abs(energy)
             stalls = stalls + 1 if mg.stalled else 0
             cycles += 1

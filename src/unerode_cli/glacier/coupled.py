@@ -451,11 +451,14 @@ class RunResult:
 
 def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times: Sequence[float],
         on_step: Callable[[GlacierState, StepReport], None] | None = None,
-        check: Callable[[GlacierState, StepReport, int], None] | None = None) -> RunResult:
+        check: Callable[[GlacierState, StepReport, int], None] | None = None,
+        after: Callable[[GlacierState, float], GlacierState] | None = None) -> RunResult:
     """Step ``state`` to each of the end ``times`` (y, increasing, e.g. ``step_times``) in turn,
     calling ``on_step(new_state, report)`` at each of them (progress, snapshots), and
     ``check(new_state, report, k)`` after every step k (1, 2, …) taken, ramp steps included
     (e.g. a divergence guard that raises, so that a run stops at the step where it diverges).
+    ``after(state, dt)``, when given, follows every glacier step of length dt with other
+    processes and returns the state they leave (``cycle.IceFreeErosion``).
 
     Cold starts: with multi-scale transport, whenever a step starts without ice, the steps are
     cut to ``RAMP_START`` years and grow by ``RAMP_FACTOR`` per step until they reach the times
@@ -474,6 +477,8 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
             if end - state.time - length <= 1e-9 * length:
                 length = end - state.time
             state, report = step(state, grid, params, ela, length)
+            if after is not None:
+                state = after(state, length)
             if state.time >= end - 1e-9 * length:
                 state = replace(state, time=end)
             result.add(state, report)

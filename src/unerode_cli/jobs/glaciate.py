@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from unerode_cli.errors import InputError, RunFailure
-from unerode_cli.glacier import blatter, coupled, erosion, massbalance
+from unerode_cli.glacier import blatter, coupled, cycle, erosion, massbalance
+from unerode_cli.hydro.outlets import outlet_mask
 from unerode_cli.io.csv_tables import table_number, table_rows
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.grid_rasters import read_on_grid, write_bands
@@ -47,6 +48,8 @@ from unerode_cli.run.parameter_maps import resolve
 COMMAND = "glaciate"
 #: Mass-balance and erosion parameters given as ``--NAME`` options (number or raster).
 PARAMETERS = (*(s for s in massbalance.PARAMETERS if s.name != "ela"), *erosion.PARAMETERS)
+#: The processes of ice-free ground and the uplift (``glacier.cycle``), also ``--NAME`` options.
+SURFACE_PARAMETERS = cycle.PARAMETERS
 ELA_SPEC = next(s for s in massbalance.PARAMETERS if s.name == "ela")
 SLIDING_SPEC = next(s for s in blatter.PARAMETERS if s.name == "sliding_c")
 #: The diagnostic solve: blatter.solve's own convergence threshold, and a generous iteration cap.
@@ -78,6 +81,11 @@ class GlacierJob:
     velocity: Path | None = None
     sliding: Path | None = None
     snapshot_every: float | None = None
+    hillslope: bool = True
+    debris: bool = True
+    fluvial: bool = True
+    shield_thickness: float = cycle.SHIELD_THICKNESS
+    drainage_every: int = cycle.DRAINAGE_EVERY
     diagnostic: bool = False
     band: int | None = None
     channel: str | None = None
@@ -98,6 +106,7 @@ class PreparedGlacierJob:
     params: coupled.CoupledParams
     thickness: np.ndarray
     ela: coupled.Ela | None
+    surface: cycle.SurfaceParams
     times: np.ndarray
     snapshot_times: list[float]
     write: WriteOptions
@@ -122,6 +131,8 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
     ela = None if job.ela is None else read_ela(job.ela, terrain)
     given = {k: v for k, v in job.parameter_values.items() if v is not None}
     values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain) for spec in PARAMETERS}
+    surface_values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain)
+                      for spec in SURFACE_PARAMETERS}
     flow_params = {"sliding_c": sliding_coefficient(job.sliding_c, terrain), "sigma": job.sliding_sigma,
                    "n_layers": job.layers}
     if job.rate_factor is not None:
@@ -132,14 +143,22 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
             allow_substeps=job.allow_substeps, boundary=job.boundary,
             background_slope=math.radians(job.background_slope), erosion=job.erosion, **values)
         params.validate(terrain.shape)
+        surface = cycle.surface_params(surface_values, job.hillslope, job.debris, job.fluvial,
+                                       job.shield_thickness, job.drainage_every)
+        surface.validate(terrain.grid)
         times = np.array([]) if job.diagnostic else coupled.step_times(job.duration, job.dt, snapshot_times)
     except ValueError as exc:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
     parameters = _provenance(job, params, given)
-    return PreparedGlacierJob(job, terrain, params, thickness, ela, times, snapshot_times, write, parameters)
+    return PreparedGlacierJob(job, terrain, params, thickness, ela, surface, times, snapshot_times, write,
+                              parameters)
 
 
 def _check_options(job: GlacierJob) -> None:
+    if not (math.isfinite(job.shield_thickness) and job.shield_thickness >= 0):
+        raise InputError(f"--shield-thickness must be a thickness ≥ 0 m, got {job.shield_thickness:g}.")
+    if job.drainage_every < 1:
+        raise InputError(f"--drainage-every must be a whole number ≥ 1, got {job.drainage_every}.")
     if job.layers < 1:
         raise InputError(f"--layers must be a whole number ≥ 1, got {job.layers}.")
     if not (math.isfinite(job.sliding_sigma) and job.sliding_sigma >= 1.0):
@@ -248,9 +267,11 @@ def _provenance(job: GlacierJob, params: coupled.CoupledParams, given: dict[str,
             "sliding_sigma": job.sliding_sigma, "rate_factor": params.flow.glen_a, "boundary": job.boundary,
             "background_slope_degrees": job.background_slope, "transport": job.transport,
             "allow_substeps": job.allow_substeps, "erosion": job.erosion, "ice_thickness": job.ice_thickness,
-            "diagnostic": job.diagnostic,
+            "diagnostic": job.diagnostic, "hillslope": job.hillslope, "debris": job.debris,
+            "fluvial": job.fluvial, "shield_thickness_m": job.shield_thickness,
+            "drainage_every": job.drainage_every,
             "flow_rtol": DIAGNOSTIC_RTOL if job.diagnostic else params.flow_rtol,
-            **{spec.name: given.get(spec.name, spec.default) for spec in PARAMETERS}}
+            **{spec.name: given.get(spec.name, spec.default) for spec in (*PARAMETERS, *SURFACE_PARAMETERS)}}
 
 
 # --- running --------------------------------------------------------------------------------------
@@ -273,10 +294,13 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
     state = coupled.GlacierState(coupled.fill_outside(terrain.elevation, grid.valid), prepared.thickness)
     snapshots: list[Path] = []
     note = ""
-    if coupled.never_glaciated(state.bed, state.thickness, grid, prepared.ela):
-        note = _no_ice_note(terrain, prepared.ela)
+    ice_free = _ice_free_erosion(prepared)
+    never = coupled.never_glaciated(state.bed, state.thickness, grid, prepared.ela)
+    if never:
+        note = _no_ice_note(terrain, prepared.ela, ice_free is not None)
         if on_note is not None:
             on_note(note)
+    if never and ice_free is None:
         end = coupled.GlacierState(state.bed, state.thickness, float(prepared.times[-1]))
         result = coupled.RunResult(end, [0.0, end.time], [0.0, 0.0], steps=0)
         for k, t in enumerate(prepared.snapshot_times, start=1):
@@ -306,7 +330,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
 
         try:
             result = coupled.run(state, grid, prepared.params, prepared.ela, prepared.times, after_step,
-                                 check)
+                                 check, ice_free)
         except coupled.UnstableStep as exc:
             raise InputError(
                 f"--dt {exc.dt:g} y is above the stable explicit ice-transport step {exc.stable:.3g} y "
@@ -315,6 +339,8 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
             raise RunFailure(f"{exc}; lower --dt or use --transport explicit") from None
     final = result.state
     stats = _statistics(result, terrain, time.perf_counter() - start, snapshots, note)
+    if ice_free is not None:
+        stats["ice_free_removed_m3"] = dict(ice_free.removed)
     flow = _final_flow(prepared, final) if (job.velocity or job.sliding) else None
     if flow is not None:
         stats["final_flow"] = _flow_statistics(flow)
@@ -336,6 +362,17 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                     f"{result.max_residual:.2g}, "
                     f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
     return summary
+
+
+def _ice_free_erosion(prepared: PreparedGlacierJob) -> cycle.IceFreeErosion | None:
+    """The processes of ice-free ground after each glacier step (``glacier.cycle``); None when
+    every one is off and there is no uplift. The map's edges and the borders of nodata are its
+    outlets."""
+    surface = prepared.surface
+    if surface.hillslope is surface.debris is surface.fluvial is None and not np.any(surface.uplift):
+        return None
+    grid = prepared.terrain.grid
+    return cycle.IceFreeErosion(surface, grid, outlet_mask(grid))
 
 
 def _step_info(report: coupled.StepReport) -> str:
@@ -397,11 +434,12 @@ def _save_layer(prepared: PreparedGlacierJob, values: np.ndarray, path: Path, un
          prepared.parameters, stats, elevation_preview=False)
 
 
-def _no_ice_note(terrain: Terrain, ela: coupled.Ela) -> str:
+def _no_ice_note(terrain: Terrain, ela: coupled.Ela, ice_free: bool) -> str:
     peak = float(np.nanmax(terrain.elevation))
     lowest = float(np.min(ela.values if isinstance(ela, coupled.ElaTable) else np.asarray(ela)))
+    outcome = "only the processes of ice-free ground change the bed" if ice_free else "the bed is unchanged"
     return (f"note: the ELA (lowest {lowest:g} m) is above every peak of the DEM (highest {peak:g} m): "
-            "no ice forms and the bed is unchanged.")
+            f"no ice forms and {outcome}.")
 
 
 def _flow_statistics(flow: coupled.FlowField) -> dict[str, Any]:

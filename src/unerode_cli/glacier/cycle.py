@@ -1,0 +1,165 @@
+"""Glacial cycles: the glacier model coupled with the processes of ice-free ground (001 §6).
+
+001 §6: "Ice shields the terrain from non-glacial erosion processes, so we do not apply them
+when the ice thickness is above a threshold (3 m in our experiments). […] erosion is applied in
+the following order: glacial erosion, then, where ice is sufficiently thin, hill slope, followed
+by combined fluvial and debris flow erosion." One step of length dt (y), after the glacier step
+of ``coupled.step`` (mass balance, ice flow, transport, glacial erosion), by operator splitting:
+
+1. hill-slope diffusion ∂z/∂t = k_h·∇²z (001 §6.4, ADI: ``processes.hillslope``) on the cells
+   whose ice is thinner than the shield; the cells under thicker ice are held fixed (Dirichlet),
+   so what diffuses into them leaves (the glacier carries it away);
+2. debris flow (001 Eq. 8: ``processes.debris``) and fluvial erosion ∂z/∂t = −k_f·A^m·|∇z|^n
+   (001 §6.3). The latter is ``processes.fluvial`` with K_d = 0 (no deposition) and a
+   precipitation of 1 m/y, so that its discharge Q = p·A (m³/y) is the drainage area A (m²) in
+   number and its K is 001's k_f. Both follow the routing of the ice surface b + H towards the
+   map's outlets and the shielded cells: a glacier is the base level of the slopes and streams
+   that reach it (they feed its surface); the routing fills depressions (priority flood), so
+   rivers cross lakes. 001 §6 updates the drainage every 20 steps; so does this loop
+   (``drainage_every``), holding the shielded cells of the last update fixed in between;
+3. tectonic uplift U·dt (m) on every cell of the domain but the outlets, under the ice too.
+
+The processes' own uplift is left at 0; each process returns a change (``SurfaceChange``), applied
+here in turn. Units: metres, years. Nothing here reads or writes files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from unerode_cli.glacier.coupled import GlacierState
+from unerode_cli.grid import Grid
+from unerode_cli.processes import debris, fluvial, hillslope
+from unerode_cli.processes.debris import DebrisParams
+from unerode_cli.processes.fluvial import FluvialParams
+from unerode_cli.processes.hillslope import HillslopeParams
+from unerode_cli.processes.parameters import UPLIFT, ParamSpec
+
+#: Ice thickness (m) above which the bed is shielded from the other processes (001 §6: 3 m).
+SHIELD_THICKNESS = 3.0
+#: Steps between two updates of the drainage (001 §6: 20).
+DRAINAGE_EVERY = 20
+#: 001 Table 1's fluvial law (k_f in m^(1−2m)·y^(−1) for A in m²: Table 1 prints m^(2m−1), whose
+#: sign of the exponent cannot give a rate in m/y), m and n.
+FLUVIAL_K_F, FLUVIAL_M, FLUVIAL_N = 5e-6, 0.4, 1.0
+
+
+#: The parameters of the ice-free processes, as the CLI offers them (``--k-h``, ``--k-df``, …).
+K_F = ParamSpec("k_f", "m^(1-2m)/y", FLUVIAL_K_F, "fluvial erodibility k_f for a drainage area A in m² "
+                "(001 §6.3, Table 1: 1.5e-6 – 5e-6)", minimum=0.0, raster=True)
+HILLSLOPE_PARAMETERS = tuple(spec for spec in hillslope.PARAMETERS if spec.name != "uplift")
+#: 001 Table 1's k_da = 10 read with the drainage area A in km², i.e. 10·(1e-6)^q m^(−2q) for A in
+#: m² at its q = 0.8. With A in m² (``processes.debris``'s own default), Table 1's values erode every
+#: slope steeper than s_c = 37° at metres per year on real terrain (K' = k_df·(1 + k_da·A^q) ≈ 0.5
+#: m/y at A = one 46 m cell; a 32² crop of Grindelwald lost 140 m in 30 y), where rock walls retreat
+#: at 0.1–2 mm/y (Moore et al. 2009); in km², K' is 1.3e-4 m/y at 1 ha and 1.1e-3 m/y at 1 km².
+DEBRIS_K_DA = 10.0 * 1e-6 ** 0.8
+DEBRIS_PARAMETERS = tuple(
+    replace(spec, default=DEBRIS_K_DA,
+            help="weight k_da of the drainage area A (m²) in the debris-flow erosion (001 Eq. 8): "
+                 "Table 1's 10 with A in km², i.e. 10·(1e-6)^0.8") if spec.name == "k_da" else spec
+    for spec in debris.PARAMETERS)
+FLUVIAL_PARAMETERS = (K_F, *(spec for spec in fluvial.PARAMETERS if spec.name in ("m", "n")))
+PARAMETERS = (UPLIFT, *HILLSLOPE_PARAMETERS, *DEBRIS_PARAMETERS, *FLUVIAL_PARAMETERS)
+
+
+def surface_params(values: dict[str, float | np.ndarray], hillslope_on: bool = True, debris_on: bool = True,
+                   fluvial_on: bool = True, shield: float = SHIELD_THICKNESS,
+                   drainage_every: int = DRAINAGE_EVERY) -> SurfaceParams:
+    """``SurfaceParams`` from values of ``PARAMETERS`` by name (the defaults where absent)."""
+    def value(spec: ParamSpec) -> float | np.ndarray:
+        return values.get(spec.name, spec.default)
+
+    return SurfaceParams(
+        shield=shield,
+        hillslope=HillslopeParams(**{s.name: value(s) for s in HILLSLOPE_PARAMETERS})
+        if hillslope_on else None,
+        debris=DebrisParams(**{s.name: value(s) for s in DEBRIS_PARAMETERS}) if debris_on else None,
+        fluvial=fluvial_of_table_1(**{s.name: value(s) for s in FLUVIAL_PARAMETERS}) if fluvial_on else None,
+        uplift=value(UPLIFT), drainage_every=drainage_every)
+
+
+def fluvial_of_table_1(k_f: float | np.ndarray = FLUVIAL_K_F, m: float = FLUVIAL_M,
+                       n: float = FLUVIAL_N) -> FluvialParams:
+    """001 §6.3's stream power law as ``processes.fluvial`` parameters: K = k_f, K_d = 0, p = 1 m/y."""
+    return FluvialParams(uplift=0.0, k=k_f, k_d=0.0, precipitation=1.0, m=m, n=n)
+
+
+@dataclass(frozen=True)
+class SurfaceParams:
+    """The processes of ice-free ground (module docstring); None switches a process off.
+
+    ``shield`` (m): ice thickness that shields the bed; ``uplift`` (m/y, number or raster);
+    ``drainage_every``: steps between updates of the routing.
+    """
+
+    shield: float = SHIELD_THICKNESS
+    hillslope: HillslopeParams | None = field(default_factory=HillslopeParams)
+    debris: DebrisParams | None = field(default_factory=lambda: DebrisParams(k_da=DEBRIS_K_DA))
+    fluvial: FluvialParams | None = field(default_factory=fluvial_of_table_1)
+    uplift: float | np.ndarray = 0.0
+    drainage_every: int = DRAINAGE_EVERY
+
+    def validate(self, grid: Grid) -> None:
+        """Raise ValueError (one sentence) for a value out of range."""
+        if not (self.shield >= 0.0 and np.isfinite(self.shield)):
+            raise ValueError(f"the shield thickness must be finite and ≥ 0 m, got {self.shield:g} m")
+        if self.drainage_every < 1:
+            raise ValueError(f"the drainage must be updated every ≥ 1 steps, got {self.drainage_every}")
+        uplift = np.asarray(self.uplift, dtype=np.float64)
+        if uplift.ndim and uplift.shape != grid.shape:
+            raise ValueError(f"the uplift map {uplift.shape} must have the grid's shape {grid.shape}")
+        if not np.isfinite(uplift[grid.valid] if uplift.ndim else uplift).all():
+            raise ValueError("the uplift must be finite inside the domain")
+        for params in (self.hillslope, self.debris, self.fluvial):
+            if params is not None:
+                params.validate(grid)
+
+
+class IceFreeErosion:
+    """Steps the processes of ice-free ground after each glacier step (module docstring); keeps
+    the routing between its updates and the volumes (m³) each process carried out of the bed so
+    far (``removed``: its outflux; hill slopes may bring material in from a fixed cell higher than
+    its neighbours, a negative outflux). ``outlets``: bool[ny, nx] base-level cells of the map."""
+
+    def __init__(self, params: SurfaceParams, grid: Grid, outlets: np.ndarray) -> None:
+        params.validate(grid)
+        self.params, self.grid = params, grid
+        self.outlets = np.asarray(outlets, dtype=bool) & grid.valid
+        self.steps = 0
+        self._routing = None
+        self._fixed: np.ndarray | None = None
+        self.removed = {"hillslope": 0.0, "debris": 0.0, "fluvial": 0.0}
+
+    def shielded(self, thickness: np.ndarray) -> np.ndarray:
+        """bool[ny, nx]: cells of the domain under ice thicker than the shield."""
+        return self.grid.valid & (np.asarray(thickness) > self.params.shield)
+
+    def __call__(self, state: GlacierState, dt: float) -> GlacierState:
+        """The state after one step dt (y) of the ice-free processes and uplift."""
+        from unerode_cli.hydro.routing import route
+
+        p, grid = self.params, self.grid
+        bed = state.bed
+        if p.hillslope is not None:
+            change = hillslope.step(bed, grid, self.outlets | self.shielded(state.thickness), p.hillslope, dt)
+            bed = bed + change.dh
+            self.removed["hillslope"] += change.budget.outflux
+        if p.debris is not None or p.fluvial is not None:
+            if self._routing is None or self.steps % p.drainage_every == 0:
+                self._fixed = self.outlets | self.shielded(state.thickness)
+                self._routing = route(bed + state.thickness, grid, self._fixed, "d8")
+            if p.debris is not None:
+                change = debris.step(bed, grid, self._fixed, p.debris, dt, routing=self._routing)
+                bed = bed + change.dh
+                self.removed["debris"] += change.budget.outflux
+            if p.fluvial is not None:
+                change = fluvial.step(bed, grid, self._fixed, p.fluvial, dt, routing=self._routing,
+                                      validated=True)
+                bed = bed + change.dh
+                self.removed["fluvial"] += change.budget.outflux
+        uplift = np.where(grid.valid & ~self.outlets, np.asarray(p.uplift, dtype=np.float64) * dt, 0.0)
+        self.steps += 1
+        return replace(state, bed=bed + uplift)
