@@ -51,6 +51,13 @@ PARAMETER_PANELS = {
 GROUND_PANEL = "Ice-free ground (001 §6.2–6.4) and uplift"
 FLOW_PANEL = "Ice flow (001 §3–4)"
 OUTPUT_PANEL = "Side outputs"
+CHRONOLOGY_PANEL = "ELA from a chronology"
+
+
+class ElaKind(str, Enum):
+    d18o = "d18o"
+    sea_level = "sea-level"
+    temperature = "temperature"
 
 
 @with_parameter_options(PARAMETER_PANELS)
@@ -75,11 +82,20 @@ def glaciate(
     no_fluvial: Annotated[bool, typer.Option("--no-fluvial", help="Switch off fluvial erosion k_f·A^m·S^n (001 §6.3), which acts where the ice is thin.", rich_help_panel=GROUND_PANEL)] = False,
     shield_thickness: Annotated[float, typer.Option("--shield-thickness", parser=Number("m", 0.0), help="Ice thicker than this (m) shields the bed from the ice-free processes (001 §6: 3 m).", rich_help_panel=GROUND_PANEL)] = cycle.SHIELD_THICKNESS,
     drainage_every: Annotated[int, typer.Option("--drainage-every", min=1, help="Steps between updates of the drainage of debris flow and rivers (001 §6: 20).", rich_help_panel=GROUND_PANEL)] = cycle.DRAINAGE_EVERY,
+    ela_chronology: Annotated[Path | None, typer.Option("--ela-chronology", help="Drive the ELA by a paleo-climate chronology (δ18O stack, sea-level curve or temperatures, see --ela-kind) from --from to --to ka, linear in the proxy between --ela-present (0 ka) and --ela-glacial (the last glacial maximum), or by --ela-lapse-rate.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
+    ela_kind: Annotated[ElaKind, typer.Option("--ela-kind", help="What the chronology holds: d18o (heavier = colder), sea-level (lower = colder) or temperature.", rich_help_panel=CHRONOLOGY_PANEL)] = ElaKind.d18o,
+    ela_present: Annotated[float | None, typer.Option("--ela-present", parser=Number("m"), help="Today's ELA (m): the ELA at 0 ka.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
+    ela_glacial: Annotated[float | None, typer.Option("--ela-glacial", parser=Number("m"), help="The ELA at the last glacial maximum (m; the chronology's most glacial value between 14 and 30 ka).", rich_help_panel=CHRONOLOGY_PANEL)] = None,
+    ela_lapse_rate: Annotated[float | None, typer.Option("--ela-lapse-rate", parser=Number("m/K", 0.0, above=True), help="With --ela-kind temperature: metres the ELA rises per kelvin of warming (1/0.0065 ≈ 154 m/K).", rich_help_panel=CHRONOLOGY_PANEL)] = None,
+    from_ka: Annotated[float | None, typer.Option("--from", parser=Number("ka", 0.0), help="Age (ka) where a chronology-driven run starts.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
+    to_ka: Annotated[float, typer.Option("--to", parser=Number("ka", 0.0), help="Age (ka) where it ends (0 = today).", rich_help_panel=CHRONOLOGY_PANEL)] = 0.0,
     ice_thickness: Annotated[Path | None, typer.Option("--ice-thickness", help="Ice thickness (m) on the DEM's grid: the initial ice, or with --diagnostic the geometry to solve.")] = None,
     diagnostic: Annotated[bool, typer.Option("--diagnostic", help="Solve the velocity of DEM + --ice-thickness once (no time stepping, relative residual 1e-5) and write --velocity and --sliding.")] = False,
     ice: Annotated[Path | None, typer.Option("--ice", help="Write the final ice thickness (m).", rich_help_panel=OUTPUT_PANEL)] = None,
     velocity: Annotated[Path | None, typer.Option("--velocity", help="Write the surface velocity (GeoTIFF, 2 bands: vx east, vy along the rows = south; m/y) of the final geometry.", rich_help_panel=OUTPUT_PANEL)] = None,
     sliding: Annotated[Path | None, typer.Option("--sliding", help="Write the basal sliding speed (m/y) of the final geometry.", rich_help_panel=OUTPUT_PANEL)] = None,
+    lakes: Annotated[Path | None, typer.Option("--lakes", help="Write the lake depth (m) of the final bed: depressions not filled by ice, to their spill level; count, area and volume in its sidecar.", rich_help_panel=OUTPUT_PANEL)] = None,
+    timeline: Annotated[Path | None, typer.Option("--timeline", help="Write a CSV with one row per step: time, age, ELA, ice volume and area, eroded volumes, lake area.", rich_help_panel=OUTPUT_PANEL)] = None,
     snapshot_every: Annotated[float | None, typer.Option(parser=POSITIVE_YEARS, help="Write the ice thickness every this many years: ICE_001.tif, ... after --ice (else OUT_ice_001.tif, ...).", rich_help_panel=OUTPUT_PANEL)] = None,
     band: Band = None,
     channel: Channel = None,
@@ -105,7 +121,9 @@ def glaciate(
             allow_substeps=not no_substep, erosion=erode, ice_thickness=ice_thickness, ice=ice,
             velocity=velocity, sliding=sliding, snapshot_every=snapshot_every, hillslope=not no_hillslope,
             debris=not no_debris, fluvial=not no_fluvial, shield_thickness=shield_thickness,
-            drainage_every=drainage_every,
+            drainage_every=drainage_every, lakes=lakes, timeline=timeline, ela_chronology=ela_chronology,
+            ela_kind=ela_kind.value, ela_present=ela_present, ela_glacial=ela_glacial,
+            ela_lapse_rate=ela_lapse_rate, from_ka=from_ka, to_ka=to_ka,
             diagnostic=diagnostic,
             band=band, channel=channel, dtype=dtype.value, cog=cog, co=co, overwrite=overwrite,
             preview=preview, parameter_values=parameter_values or {},

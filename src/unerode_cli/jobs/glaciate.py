@@ -18,18 +18,22 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from unerode_cli.climate import ela as ela_model
+from unerode_cli.climate.chronology import YEARS_PER_KA
 from unerode_cli.errors import InputError, RunFailure
-from unerode_cli.glacier import blatter, coupled, cycle, erosion, massbalance
+from unerode_cli.glacier import blatter, coupled, cycle, erosion, lakes, massbalance
 from unerode_cli.hydro.outlets import outlet_mask
-from unerode_cli.io.csv_tables import table_number, table_rows
+from unerode_cli.io.csv_tables import table_number, table_rows, write_table
+from unerode_cli.io.ela_files import read_ela_proxy
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.grid_rasters import read_on_grid, write_bands
+from unerode_cli.io.paths import check_output
 from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
@@ -86,6 +90,15 @@ class GlacierJob:
     fluvial: bool = True
     shield_thickness: float = cycle.SHIELD_THICKNESS
     drainage_every: int = cycle.DRAINAGE_EVERY
+    lakes: Path | None = None
+    timeline: Path | None = None
+    ela_chronology: Path | None = None
+    ela_kind: str = "d18o"
+    ela_present: float | None = None
+    ela_glacial: float | None = None
+    ela_lapse_rate: float | None = None
+    from_ka: float | None = None
+    to_ka: float = 0.0
     diagnostic: bool = False
     band: int | None = None
     channel: str | None = None
@@ -129,6 +142,9 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
         check_previewable(terrain, job.source)
     thickness = read_thickness(job.ice_thickness, terrain)
     ela = None if job.ela is None else read_ela(job.ela, terrain)
+    duration = job.duration
+    if job.ela_chronology is not None:
+        ela, duration = chronology_ela(job)
     given = {k: v for k, v in job.parameter_values.items() if v is not None}
     values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain) for spec in PARAMETERS}
     surface_values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain)
@@ -146,7 +162,7 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
         surface = cycle.surface_params(surface_values, job.hillslope, job.debris, job.fluvial,
                                        job.shield_thickness, job.drainage_every)
         surface.validate(terrain.grid)
-        times = np.array([]) if job.diagnostic else coupled.step_times(job.duration, job.dt, snapshot_times)
+        times = np.array([]) if job.diagnostic else coupled.step_times(duration, job.dt, snapshot_times)
     except ValueError as exc:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
     parameters = _provenance(job, params, given)
@@ -176,9 +192,12 @@ def _check_options(job: GlacierJob) -> None:
         return
     if job.output is None:
         raise InputError("OUT (the eroded bed) is required unless --diagnostic is given.")
-    if job.ela is None:
-        raise InputError("--ela is required (a number in m, a raster, or a CSV time table).")
-    if job.duration is None or not (math.isfinite(job.duration) and job.duration > 0):
+    if job.ela_chronology is not None:
+        _check_chronology_options(job)
+    elif job.ela is None:
+        raise InputError("--ela (a number in m, a raster, or a CSV time table) or --ela-chronology "
+                         "is required.")
+    elif job.duration is None or not (math.isfinite(job.duration) and job.duration > 0):
         raise InputError("--duration must be given as a positive number of years.")
     if not (math.isfinite(job.dt) and job.dt > 0):
         raise InputError(f"--dt must be a positive number of years, got {job.dt:g}.")
@@ -186,10 +205,56 @@ def _check_options(job: GlacierJob) -> None:
         raise InputError(f"--snapshot-every must be a positive number of years, got {job.snapshot_every:g}.")
 
 
+def _check_chronology_options(job: GlacierJob) -> None:
+    if job.ela is not None or job.duration is not None:
+        raise InputError("--ela-chronology sets the ELA and the duration: drop --ela and --duration.")
+    if job.from_ka is None:
+        raise InputError("--ela-chronology needs --from (the age in ka where the run starts).")
+    if job.ela_present is None:
+        raise InputError("--ela-chronology needs --ela-present (today's ELA in m).")
+    if (job.ela_glacial is None) == (job.ela_lapse_rate is None):
+        raise InputError("--ela-chronology needs one of --ela-glacial (the ELA at the last glacial maximum, "
+                         "m) or --ela-lapse-rate (m/K, with a temperature chronology).")
+    if job.ela_lapse_rate is not None and job.ela_kind != "temperature":
+        raise InputError("--ela-lapse-rate needs --ela-kind temperature.")
+    if job.ela_kind not in ela_model.ELA_KINDS:
+        raise InputError(f"--ela-kind must be one of {', '.join(ela_model.ELA_KINDS)}, got {job.ela_kind!r}.")
+
+
+def chronology_ela(job: GlacierJob) -> tuple[coupled.ElaTable, float]:
+    """The ELA through the run from ``--ela-chronology`` (``climate.ela``: linear in the proxy
+    between today and the last glacial maximum, or a lapse rate on a temperature), as a table of
+    years since ``--from``, and the run's duration (y)."""
+    assert job.ela_chronology is not None and job.from_ka is not None and job.ela_present is not None
+    series = read_ela_proxy(job.ela_chronology, job.ela_kind)
+    try:
+        if job.ela_lapse_rate is not None:
+            values = ela_model.ela_from_temperature(series, job.ela_lapse_rate, job.ela_present,
+                                                    series.age_ka)
+        else:
+            assert job.ela_glacial is not None
+            values = ela_model.ela_from_proxy(series, job.ela_kind, job.ela_present, job.ela_glacial,
+                                              series.age_ka)
+        times, ela = ela_model.ela_table(series.age_ka, values, job.from_ka, job.to_ka,
+                                         str(job.ela_chronology))
+    except ValueError as exc:
+        raise InputError(f"{str(exc).rstrip('.')}.") from None
+    duration = _duration(job)
+    assert duration is not None
+    return coupled.ElaTable(times, ela), duration
+
+
+def _duration(job: GlacierJob) -> float | None:
+    if job.from_ka is not None and job.ela_chronology is not None:
+        return (job.from_ka - job.to_ka) * YEARS_PER_KA
+    return job.duration
+
+
 def _snapshot_times(job: GlacierJob) -> list[float]:
-    if job.diagnostic or job.snapshot_every is None or job.duration is None:
+    duration = _duration(job)
+    if job.diagnostic or job.snapshot_every is None or duration is None:
         return []
-    count = math.floor(job.duration / job.snapshot_every * (1.0 + 1e-12))
+    count = math.floor(duration / job.snapshot_every * (1.0 + 1e-12))
     return [k * job.snapshot_every for k in range(1, count + 1)]
 
 
@@ -201,10 +266,10 @@ def snapshot_base(job: GlacierJob) -> Path:
 
 def _check_outputs(job: GlacierJob, snapshot_times: list[float], write: WriteOptions) -> None:
     inputs = tuple(p for p in (job.source, job.ice_thickness) if p is not None)
-    rasters = [p for p in (job.output, job.ice, job.velocity, job.sliding) if p is not None]
+    rasters = [p for p in (job.output, job.ice, job.velocity, job.sliding, job.lakes) if p is not None]
     if snapshot_times:
         rasters += [snapshot_path(snapshot_base(job), k) for k in range(1, len(snapshot_times) + 1)]
-    paths = rasters + ([job.preview] if job.preview is not None else [])
+    paths = rasters + [p for p in (job.preview, job.timeline) if p is not None]
     if len(set(map(Path.resolve, paths))) != len(paths):
         raise InputError("two outputs have the same path.")
     if job.velocity is not None and job.velocity.suffix.lower() not in (".tif", ".tiff"):
@@ -214,6 +279,8 @@ def _check_outputs(job: GlacierJob, snapshot_times: list[float], write: WriteOpt
         check_raster(path, write, job.overwrite, inputs)
     if job.preview is not None:
         check_png(job.preview, job.overwrite, inputs)
+    if job.timeline is not None:
+        check_output(job.timeline, job.overwrite, inputs)
 
 
 def read_thickness(path: Path | None, terrain: Terrain) -> np.ndarray:
@@ -293,6 +360,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
     start = time.perf_counter()
     state = coupled.GlacierState(coupled.fill_outside(terrain.elevation, grid.valid), prepared.thickness)
     snapshots: list[Path] = []
+    timeline: list[dict[str, Any]] = []
     note = ""
     ice_free = _ice_free_erosion(prepared)
     never = coupled.never_glaciated(state.bed, state.thickness, grid, prepared.ela)
@@ -319,6 +387,8 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
             where = f"in step {k} (t = {new.time:g} y)"
             bed_guard.check(new.bed, new.time, where)
             surface_guard.check(new.bed + new.thickness, new.time, where)
+            if job.timeline is not None:
+                timeline.append(_timeline_row(prepared, new, report, ice_free))
             if on_step is not None:
                 on_step(new.time, _step_info(report))
 
@@ -353,6 +423,12 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         _save_layer(prepared, final.thickness, job.ice, "m", stats, final.time)
     if flow is not None:
         _write_flow(prepared, flow, stats)
+    if job.lakes is not None:
+        depth = _lake_depth(prepared, final)
+        stats["lakes"] = asdict(lakes.lake_stats(depth, grid))
+        _save_layer(prepared, depth, job.lakes, "m", stats, final.time)
+    if job.timeline is not None:
+        write_table(job.timeline, list(TIMELINE_COLUMNS), timeline)
     summary = (f"{COMMAND}: {result.steps} steps to t = {final.time:g} y; ice volume "
                f"{result.volumes[-1] / 1e9:.4g} km³; removed {result.eroded:.4g} m³ "
                f"of bedrock; wrote {job.output}")
@@ -362,6 +438,37 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                     f"{result.max_residual:.2g}, "
                     f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
     return summary
+
+
+#: Columns of ``--timeline``: one row per step taken (ramp steps included), at its end.
+TIMELINE_COLUMNS = ("time_y", "age_ka", "ela_m", "ice_volume_m3", "ice_area_m2", "glacial_eroded_m3",
+                    "ice_free_removed_m3", "lake_area_m2")
+
+
+def _lake_depth(prepared: PreparedGlacierJob, state: coupled.GlacierState) -> np.ndarray:
+    """Lake depth (m) of a state (``glacier.lakes``), water leaving through the map's edges and
+    the borders of nodata."""
+    grid = prepared.terrain.grid
+    return lakes.lake_depth(state.bed, state.thickness, grid, outlet_mask(grid))
+
+
+def _timeline_row(prepared: PreparedGlacierJob, state: coupled.GlacierState, report: coupled.StepReport,
+                  ice_free: cycle.IceFreeErosion | None) -> dict[str, Any]:
+    """One row of ``--timeline`` (``TIMELINE_COLUMNS``): the ELA of the step (mean of a map), the
+    ice, the volume eroded by the glaciers in the step and carried off by the other processes
+    since the start, the area of the lakes."""
+    job, grid = prepared.job, prepared.terrain.grid
+    ela = np.asarray(coupled.ela_at(prepared.ela, state.time - report.dt), dtype=np.float64)
+    return {"time_y": state.time,
+            "age_ka": None if job.from_ka is None or job.ela_chronology is None
+            else job.from_ka - state.time / YEARS_PER_KA,
+            "ela_m": float(ela[grid.valid].mean() if ela.ndim else ela),
+            "ice_volume_m3": report.volume,
+            "ice_area_m2": float(np.count_nonzero(state.thickness[grid.valid] > lakes.ICE_FREE_BELOW))
+            * grid.cell_area,
+            "glacial_eroded_m3": report.eroded,
+            "ice_free_removed_m3": sum(ice_free.removed.values()) if ice_free is not None else 0.0,
+            "lake_area_m2": lakes.lake_stats(_lake_depth(prepared, state), grid).area_m2}
 
 
 def _ice_free_erosion(prepared: PreparedGlacierJob) -> cycle.IceFreeErosion | None:
