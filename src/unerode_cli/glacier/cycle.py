@@ -148,7 +148,7 @@ class IceFreeErosion:
             bed = bed + change.dh
             self.removed["hillslope"] += change.budget.outflux
         if p.debris is not None or p.fluvial is not None:
-            if self._routing is None or self.steps % p.drainage_every == 0:
+            if self.steps % p.drainage_every == 0:
                 self._fixed = self.outlets | self.shielded(state.thickness)
                 self._routing = route(bed + state.thickness, grid, self._fixed, "d8")
             if p.debris is not None:

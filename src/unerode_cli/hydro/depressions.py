@@ -22,7 +22,7 @@ import numpy as np
 
 from unerode_cli.grid import Grid
 from unerode_cli.hydro.kernels import DCOL, DROW, _heap_pop, _heap_push
-from unerode_cli.hydro.outlets import require_outlets
+from unerode_cli.hydro.routing import flood_inputs, require_all_reached
 
 #: Default of ``lake_stats``'s ``min_depth`` (m): a water body whose deepest cell is shallower
 #: than this is taken for a pit of the DEM (rounding, interpolation, float32 storage), not a lake.
@@ -106,23 +106,9 @@ def fill_depressions(elevation: np.ndarray, grid: Grid, outlets: np.ndarray) -> 
         ValueError: shape mismatch, no outlet, non-finite elevation in the domain, or valid
             cells that cannot reach any outlet.
     """
-    if elevation.shape != grid.shape or outlets.shape != grid.shape:
-        raise ValueError(
-            f"elevation {elevation.shape} and outlets {outlets.shape} must have the grid's shape {grid.shape}"
-        )
-    valid = grid.valid
-    outlets = np.ascontiguousarray(outlets, dtype=bool) & valid
-    require_outlets(outlets)
-    z = np.ascontiguousarray(elevation, dtype=np.float64)
-    if not np.isfinite(z[valid]).all():
-        raise ValueError("the elevation has non-finite values inside the domain (not nodata)")
-    filled, count = spill_levels(z, valid, outlets)
-    unreached = int(np.count_nonzero(valid)) - count
-    if unreached:
-        raise ValueError(
-            f"{unreached} valid cells cannot drain to any outlet: add outlets in every separate part "
-            "of the domain"
-        )
+    z, outlets = flood_inputs(elevation, grid, outlets)
+    filled, count = spill_levels(z, grid.valid, outlets)
+    require_all_reached(grid.valid, count)
     return filled
 
 

@@ -99,15 +99,7 @@ def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method
     if method not in METHODS:
         raise ValueError(f"routing method must be one of {', '.join(METHODS)}, got {method!r}")
     valid = grid.valid
-    if elevation.shape != grid.shape or outlets.shape != grid.shape:
-        raise ValueError(
-            f"elevation {elevation.shape} and outlets {outlets.shape} must have the grid's shape {grid.shape}"
-        )
-    outlets = np.ascontiguousarray(outlets, dtype=bool) & valid
-    require_outlets(outlets)
-    z = np.ascontiguousarray(elevation, dtype=np.float64)
-    if not np.isfinite(z).all() and not np.isfinite(z[valid]).all():
-        raise ValueError("the elevation has non-finite values inside the domain (not nodata)")
+    z, outlets = flood_inputs(elevation, grid, outlets)
     n = z.size
     index = np.int32 if n < 2**31 else np.int64  # cell indices in the work arrays
     filled = np.empty(grid.shape, dtype=np.float64)
@@ -125,13 +117,34 @@ def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method
         scratch("flood.pit", (n,), index),
     )
     order = descending[n - count :]
+    require_all_reached(valid, count)
+    return Routing(grid, method, filled, outlets, order)
+
+
+def flood_inputs(elevation: np.ndarray, grid: Grid, outlets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The checked inputs of a priority flood: (elevation as contiguous float64, outlets as
+    contiguous bool inside the domain). Raises ValueError for a shape mismatch, no outlet or a
+    non-finite elevation in the domain."""
+    if elevation.shape != grid.shape or outlets.shape != grid.shape:
+        raise ValueError(
+            f"elevation {elevation.shape} and outlets {outlets.shape} must have the grid's shape {grid.shape}"
+        )
+    outlets = np.ascontiguousarray(outlets, dtype=bool) & grid.valid
+    require_outlets(outlets)
+    z = np.ascontiguousarray(elevation, dtype=np.float64)
+    if not np.isfinite(z).all() and not np.isfinite(z[grid.valid]).all():
+        raise ValueError("the elevation has non-finite values inside the domain (not nodata)")
+    return z, outlets
+
+
+def require_all_reached(valid: np.ndarray, count: int) -> None:
+    """Raise ValueError when a flood from the outlets reached only ``count`` of the valid cells."""
     unreached = int(np.count_nonzero(valid)) - count
     if unreached:
         raise ValueError(
             f"{unreached} valid cells cannot drain to any outlet: add outlets in every "
             "separate part of the domain"
         )
-    return Routing(grid, method, filled, outlets, order)
 
 
 def same_values(a: np.ndarray, b: np.ndarray) -> bool:

@@ -142,9 +142,8 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
         check_previewable(terrain, job.source)
     thickness = read_thickness(job.ice_thickness, terrain)
     ela = None if job.ela is None else read_ela(job.ela, terrain)
-    duration = job.duration
     if job.ela_chronology is not None:
-        ela, duration = chronology_ela(job)
+        ela = chronology_ela(job)
     given = {k: v for k, v in job.parameter_values.items() if v is not None}
     values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain) for spec in PARAMETERS}
     surface_values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain)
@@ -162,7 +161,8 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
         surface = cycle.surface_params(surface_values, job.hillslope, job.debris, job.fluvial,
                                        job.shield_thickness, job.drainage_every)
         surface.validate(terrain.grid)
-        times = np.array([]) if job.diagnostic else coupled.step_times(duration, job.dt, snapshot_times)
+        times = np.array([]) if job.diagnostic else coupled.step_times(_duration(job), job.dt,
+                                                                             snapshot_times)
     except ValueError as exc:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
     parameters = _provenance(job, params, given)
@@ -221,10 +221,10 @@ def _check_chronology_options(job: GlacierJob) -> None:
         raise InputError(f"--ela-kind must be one of {', '.join(ela_model.ELA_KINDS)}, got {job.ela_kind!r}.")
 
 
-def chronology_ela(job: GlacierJob) -> tuple[coupled.ElaTable, float]:
+def chronology_ela(job: GlacierJob) -> coupled.ElaTable:
     """The ELA through the run from ``--ela-chronology`` (``climate.ela``: linear in the proxy
     between today and the last glacial maximum, or a lapse rate on a temperature), as a table of
-    years since ``--from``, and the run's duration (y)."""
+    years since ``--from``."""
     assert job.ela_chronology is not None and job.from_ka is not None and job.ela_present is not None
     series = read_ela_proxy(job.ela_chronology, job.ela_kind)
     try:
@@ -239,12 +239,11 @@ def chronology_ela(job: GlacierJob) -> tuple[coupled.ElaTable, float]:
                                          str(job.ela_chronology))
     except ValueError as exc:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
-    duration = _duration(job)
-    assert duration is not None
-    return coupled.ElaTable(times, ela), duration
+    return coupled.ElaTable(times, ela)
 
 
 def _duration(job: GlacierJob) -> float | None:
+    """Simulated years: ``--duration``, or from ``--from`` to ``--to`` along a chronology."""
     if job.from_ka is not None and job.ela_chronology is not None:
         return (job.from_ka - job.to_ka) * YEARS_PER_KA
     return job.duration
@@ -362,7 +361,8 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
     snapshots: list[Path] = []
     timeline: list[dict[str, Any]] = []
     note = ""
-    ice_free = _ice_free_erosion(prepared)
+    outlets = outlet_mask(grid)  # the map's edges and the borders of nodata
+    ice_free = _ice_free_erosion(prepared, outlets)
     never = coupled.never_glaciated(state.bed, state.thickness, grid, prepared.ela)
     if never:
         note = _no_ice_note(terrain, prepared.ela, ice_free is not None)
@@ -388,7 +388,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
             bed_guard.check(new.bed, new.time, where)
             surface_guard.check(new.bed + new.thickness, new.time, where)
             if job.timeline is not None:
-                timeline.append(_timeline_row(prepared, new, report, ice_free))
+                timeline.append(_timeline_row(prepared, new, report, ice_free, outlets))
             if on_step is not None:
                 on_step(new.time, _step_info(report))
 
@@ -424,7 +424,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
     if flow is not None:
         _write_flow(prepared, flow, stats)
     if job.lakes is not None:
-        depth = _lake_depth(prepared, final)
+        depth = lakes.lake_depth(final.bed, final.thickness, grid, outlets)
         stats["lakes"] = asdict(lakes.lake_stats(depth, grid))
         _save_layer(prepared, depth, job.lakes, "m", stats, final.time)
     if job.timeline is not None:
@@ -445,15 +445,8 @@ TIMELINE_COLUMNS = ("time_y", "age_ka", "ela_m", "ice_volume_m3", "ice_area_m2",
                     "ice_free_removed_m3", "lake_area_m2")
 
 
-def _lake_depth(prepared: PreparedGlacierJob, state: coupled.GlacierState) -> np.ndarray:
-    """Lake depth (m) of a state (``glacier.lakes``), water leaving through the map's edges and
-    the borders of nodata."""
-    grid = prepared.terrain.grid
-    return lakes.lake_depth(state.bed, state.thickness, grid, outlet_mask(grid))
-
-
 def _timeline_row(prepared: PreparedGlacierJob, state: coupled.GlacierState, report: coupled.StepReport,
-                  ice_free: cycle.IceFreeErosion | None) -> dict[str, Any]:
+                  ice_free: cycle.IceFreeErosion | None, outlets: np.ndarray) -> dict[str, Any]:
     """One row of ``--timeline`` (``TIMELINE_COLUMNS``): the ELA of the step (mean of a map), the
     ice, the volume eroded by the glaciers in the step and carried off by the other processes
     since the start, the area of the lakes."""
@@ -468,18 +461,17 @@ def _timeline_row(prepared: PreparedGlacierJob, state: coupled.GlacierState, rep
             * grid.cell_area,
             "glacial_eroded_m3": report.eroded,
             "ice_free_removed_m3": sum(ice_free.removed.values()) if ice_free is not None else 0.0,
-            "lake_area_m2": lakes.lake_stats(_lake_depth(prepared, state), grid).area_m2}
+            "lake_area_m2": lakes.lake_stats(lakes.lake_depth(state.bed, state.thickness, grid, outlets),
+                                             grid).area_m2}
 
 
-def _ice_free_erosion(prepared: PreparedGlacierJob) -> cycle.IceFreeErosion | None:
-    """The processes of ice-free ground after each glacier step (``glacier.cycle``); None when
-    every one is off and there is no uplift. The map's edges and the borders of nodata are its
-    outlets."""
+def _ice_free_erosion(prepared: PreparedGlacierJob, outlets: np.ndarray) -> cycle.IceFreeErosion | None:
+    """The processes of ice-free ground after each glacier step (``glacier.cycle``) towards
+    ``outlets``; None when every one is off and there is no uplift."""
     surface = prepared.surface
     if surface.hillslope is surface.debris is surface.fluvial is None and not np.any(surface.uplift):
         return None
-    grid = prepared.terrain.grid
-    return cycle.IceFreeErosion(surface, grid, outlet_mask(grid))
+    return cycle.IceFreeErosion(surface, prepared.terrain.grid, outlets)
 
 
 def _step_info(report: coupled.StepReport) -> str:
