@@ -40,6 +40,7 @@ def test_the_timeline_follows_the_lr04_mapping_to_today(tmp_path: Path, small_va
     expected = ela_model.ela_from_proxy(series, "d18o", 3000.0, 2000.0, 0.3 - starts / 1e3)
     assert [float(r["ela_m"]) for r in rows] == pytest.approx(expected, abs=1e-6)
     assert float(rows[-1]["ice_volume_m3"]) > 0
+    assert (tmp_path / "bed_chronology.png").stat().st_size > 10_000   # proxy, ELA, ice volume
     stats = json.loads((tmp_path / "lakes.tif.json").read_text())["statistics"]["lakes"]
     depth = read_terrain(lakes).elevation
     assert stats["area_m2"] == pytest.approx(np.count_nonzero(depth > 0) * DX * DX, rel=0.5, abs=DX * DX)

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from unerode_cli.climate import ela as ela_model
-from unerode_cli.climate.chronology import YEARS_PER_KA
+from unerode_cli.climate.chronology import YEARS_PER_KA, Series
 from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.glacier import blatter, coupled, cycle, erosion, lakes, massbalance
 from unerode_cli.hydro.outlets import outlet_mask
@@ -33,7 +33,7 @@ from unerode_cli.io.csv_tables import table_number, table_rows, write_table
 from unerode_cli.io.ela_files import read_ela_proxy
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.grid_rasters import read_on_grid, write_bands
-from unerode_cli.io.paths import check_output
+from unerode_cli.io.paths import atomic_path, check_output
 from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
@@ -48,6 +48,7 @@ from unerode_cli.run.outputs import (
     snapshot_path,
 )
 from unerode_cli.run.parameter_maps import resolve
+from unerode_cli.viz.glacial_chronology_plot import save_glacial_chronology_plot
 
 COMMAND = "glaciate"
 #: Mass-balance and erosion parameters given as ``--NAME`` options (number or raster).
@@ -119,6 +120,7 @@ class PreparedGlacierJob:
     params: coupled.CoupledParams
     thickness: np.ndarray
     ela: coupled.Ela | None
+    chronology: Series | None
     surface: cycle.SurfaceParams
     times: np.ndarray
     snapshot_times: list[float]
@@ -142,8 +144,10 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
         check_previewable(terrain, job.source)
     thickness = read_thickness(job.ice_thickness, terrain)
     ela = None if job.ela is None else read_ela(job.ela, terrain)
+    chronology = None
     if job.ela_chronology is not None:
-        ela = chronology_ela(job)
+        chronology = read_ela_proxy(job.ela_chronology, job.ela_kind)
+        ela = chronology_ela(job, chronology)
     given = {k: v for k, v in job.parameter_values.items() if v is not None}
     values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain) for spec in PARAMETERS}
     surface_values = {spec.name: resolve(spec, given.get(spec.name, spec.default), terrain)
@@ -166,8 +170,8 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
     except ValueError as exc:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
     parameters = _provenance(job, params, given)
-    return PreparedGlacierJob(job, terrain, params, thickness, ela, surface, times, snapshot_times, write,
-                              parameters)
+    return PreparedGlacierJob(job, terrain, params, thickness, ela, chronology, surface, times,
+                              snapshot_times, write, parameters)
 
 
 def _check_options(job: GlacierJob) -> None:
@@ -221,12 +225,11 @@ def _check_chronology_options(job: GlacierJob) -> None:
         raise InputError(f"--ela-kind must be one of {', '.join(ela_model.ELA_KINDS)}, got {job.ela_kind!r}.")
 
 
-def chronology_ela(job: GlacierJob) -> coupled.ElaTable:
-    """The ELA through the run from ``--ela-chronology`` (``climate.ela``: linear in the proxy
-    between today and the last glacial maximum, or a lapse rate on a temperature), as a table of
-    years since ``--from``."""
-    assert job.ela_chronology is not None and job.from_ka is not None and job.ela_present is not None
-    series = read_ela_proxy(job.ela_chronology, job.ela_kind)
+def chronology_ela(job: GlacierJob, series: Series) -> coupled.ElaTable:
+    """The ELA through the run from the proxy ``series`` of ``--ela-chronology`` (``climate.ela``:
+    linear in the proxy between today and the last glacial maximum, or a lapse rate on a
+    temperature), as a table of years since ``--from``."""
+    assert job.from_ka is not None and job.ela_present is not None
     try:
         if job.ela_lapse_rate is not None:
             values = ela_model.ela_from_temperature(series, job.ela_lapse_rate, job.ela_present,
@@ -257,6 +260,11 @@ def _snapshot_times(job: GlacierJob) -> list[float]:
     return [k * job.snapshot_every for k in range(1, count + 1)]
 
 
+def chronology_png_path(output: Path) -> Path:
+    """The chronology plot of a run along ``--ela-chronology``: OUT_chronology.png."""
+    return output.with_name(f"{output.stem}_chronology.png")
+
+
 def snapshot_base(job: GlacierJob) -> Path:
     """Ice snapshots are numbered after ``--ice``, else after ``OUT_ice``."""
     assert job.output is not None
@@ -268,7 +276,11 @@ def _check_outputs(job: GlacierJob, snapshot_times: list[float], write: WriteOpt
     rasters = [p for p in (job.output, job.ice, job.velocity, job.sliding, job.lakes) if p is not None]
     if snapshot_times:
         rasters += [snapshot_path(snapshot_base(job), k) for k in range(1, len(snapshot_times) + 1)]
-    paths = rasters + [p for p in (job.preview, job.timeline) if p is not None]
+    pngs = [p for p in (job.preview,) if p is not None]
+    if job.ela_chronology is not None:
+        assert job.output is not None
+        pngs.append(chronology_png_path(job.output))
+    paths = rasters + pngs + [p for p in (job.timeline,) if p is not None]
     if len(set(map(Path.resolve, paths))) != len(paths):
         raise InputError("two outputs have the same path.")
     if job.velocity is not None and job.velocity.suffix.lower() not in (".tif", ".tiff"):
@@ -276,8 +288,8 @@ def _check_outputs(job: GlacierJob, snapshot_times: list[float], write: WriteOpt
                          f"got {job.velocity.name}.")
     for path in rasters:
         check_raster(path, write, job.overwrite, inputs)
-    if job.preview is not None:
-        check_png(job.preview, job.overwrite, inputs)
+    for png in pngs:
+        check_png(png, job.overwrite, inputs)
     if job.timeline is not None:
         check_output(job.timeline, job.overwrite, inputs)
 
@@ -429,6 +441,8 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         _save_layer(prepared, depth, job.lakes, "m", stats, final.time)
     if job.timeline is not None:
         write_table(job.timeline, list(TIMELINE_COLUMNS), timeline)
+    if prepared.chronology is not None:
+        _write_chronology_plot(prepared, result)
     summary = (f"{COMMAND}: {result.steps} steps to t = {final.time:g} y; ice volume "
                f"{result.volumes[-1] / 1e9:.4g} km³; removed {result.eroded:.4g} m³ "
                f"of bedrock; wrote {job.output}")
@@ -438,6 +452,18 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                     f"{result.max_residual:.2g}, "
                     f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
     return summary
+
+
+def _write_chronology_plot(prepared: PreparedGlacierJob, result: coupled.RunResult) -> None:
+    """OUT_chronology.png: the proxy, the ELA at the start of each step and the ice volume."""
+    job, series = prepared.job, prepared.chronology
+    assert series is not None and job.output is not None and job.from_ka is not None
+    times = np.asarray(result.times)
+    ela = [float(np.mean(coupled.ela_at(prepared.ela, t))) for t in times]
+    with atomic_path(chronology_png_path(job.output)) as tmp:
+        save_glacial_chronology_plot(tmp, series.age_ka, series.value, f"{series.name} ({series.unit})",
+                                     job.from_ka - times / YEARS_PER_KA, np.array(ela),
+                                     np.array(result.volumes), title=job.output.name)
 
 
 #: Columns of ``--timeline``: one row per step taken (ramp steps included), at its end.
