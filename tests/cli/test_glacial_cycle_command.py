@@ -67,3 +67,8 @@ def test_bad_chronology_runs_are_refused(tmp_path: Path, small_valley: Path, ext
     if "--ela-glacial" not in extra and "--ela-lapse-rate" not in extra:
         args += ["--ela-glacial", 2000]
     assert_refused(run_cli(*args, *extra), out, words)
+
+
+def test_glaciers_are_refused_backward_in_time(tmp_path: Path, small_valley: Path) -> None:
+    out = tmp_path / "past.tif"
+    assert_refused(run_cli("unerode", small_valley, out, "--process", "glacial"), out, "cannot run backward")

@@ -261,14 +261,22 @@ def build_processes(names: list[str], terrain: Terrain, boundaries: Boundaries,
     return built
 
 
+#: The glacier model's name in process lists: not a process of the runner (``glaciate`` runs it).
+GLACIAL = "glacial"
+
+
 def parse_process_list(text: str, backward: bool) -> list[str]:
     """``"fluvial,thermal"`` → names, checked against the registry (and the direction)."""
     names = [n.strip().lower() for n in text.split(",") if n.strip()]
     if not names:
         raise InputError("--process needs at least one process name.")
     for name in names:
+        if name == GLACIAL and backward:
+            raise InputError("glaciers cannot run backward in time (ice flow, transport and glacial "
+                             "erosion are not reversible); run them forward with glaciate.")
         if name not in REGISTRY:
-            raise InputError(f"unknown process '{name}'; choose from {', '.join(REGISTRY)}.")
+            hint = " (glaciers run in glaciate)" if name == GLACIAL else ""
+            raise InputError(f"unknown process '{name}'{hint}; choose from {', '.join(REGISTRY)}.")
         refusal = REGISTRY[name].backward_refusal
         if backward and refusal:
             raise InputError(refusal)
