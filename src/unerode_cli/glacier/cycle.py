@@ -45,8 +45,7 @@ DRAINAGE_EVERY = 20
 #: sign of the exponent cannot give a rate in m/y), m and n.
 FLUVIAL_K_F, FLUVIAL_M, FLUVIAL_N = 5e-6, 0.4, 1.0
 
-
-#: The parameters of the ice-free processes, as the CLI offers them (``--k-h``, ``--k-df``, …).
+#: 001 §6.3's fluvial erodibility as a parameter (``--k-f``).
 K_F = ParamSpec("k_f", "m^(1-2m)/y", FLUVIAL_K_F, "fluvial erodibility k_f for a drainage area A in m² "
                 "(001 §6.3, Table 1: 1.5e-6 – 5e-6)", minimum=0.0, raster=True)
 HILLSLOPE_PARAMETERS = tuple(spec for spec in hillslope.PARAMETERS if spec.name != "uplift")
@@ -62,6 +61,7 @@ DEBRIS_PARAMETERS = tuple(
                  "Table 1's 10 with A in km², i.e. 10·(1e-6)^0.8") if spec.name == "k_da" else spec
     for spec in debris.PARAMETERS)
 FLUVIAL_PARAMETERS = (K_F, *(spec for spec in fluvial.PARAMETERS if spec.name in ("m", "n")))
+#: The parameters of the ice-free processes and the uplift, as the CLI offers them (``--k-h``, …).
 PARAMETERS = (UPLIFT, *HILLSLOPE_PARAMETERS, *DEBRIS_PARAMETERS, *FLUVIAL_PARAMETERS)
 
 
