@@ -41,6 +41,11 @@ def test_the_timeline_follows_the_lr04_mapping_to_today(tmp_path: Path, small_va
     assert [float(r["ela_m"]) for r in rows] == pytest.approx(expected, abs=1e-6)
     assert float(rows[-1]["ice_volume_m3"]) > 0
     assert (tmp_path / "bed_chronology.png").stat().st_size > 10_000   # proxy, ELA, ice volume
+    bed_stats = json.loads((tmp_path / "bed.tif.json").read_text())["statistics"]
+    parts = bed_stats["wall_time_by_part_s"]   # where the time went: ice flow, transport, …
+    assert set(parts) == {"ice_flow", "transport_erosion", "ice_free", "other"}
+    assert sum(parts.values()) == pytest.approx(bed_stats["wall_time_s"], rel=0.05)
+    assert sum(bed_stats["ice_free_wall_time_s"].values()) == pytest.approx(parts["ice_free"], rel=0.05)
     stats = json.loads((tmp_path / "lakes.tif.json").read_text())["statistics"]["lakes"]
     depth = read_terrain(lakes).elevation
     assert stats["area_m2"] == pytest.approx(np.count_nonzero(depth > 0) * DX * DX, rel=0.5, abs=DX * DX)

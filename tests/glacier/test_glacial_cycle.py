@@ -56,3 +56,44 @@ def test_a_negative_shield_is_refused():
     bed, grid, outlets = _cliff()
     with pytest.raises(ValueError, match="shield"):
         cycle.IceFreeErosion(cycle.SurfaceParams(shield=-1.0), grid, outlets)
+
+
+def _coast(n: int = 24) -> tuple[np.ndarray, Grid, np.ndarray]:
+    """A plane rising 4 m per 20 m cell towards the east from −40 m on the west edge: cells of
+    columns 0–10 are at or below 0 m. Outlets on every edge (as glaciate)."""
+    grid = Grid.full((n, n), 20.0)
+    bed = np.broadcast_to(-40.0 + 4.0 * np.arange(n), (n, n)).astype(np.float64)
+    outlets = np.zeros((n, n), dtype=bool)
+    outlets[[0, -1], :] = outlets[:, [0, -1]] = True
+    return bed, grid, outlets
+
+
+def test_cells_at_or_below_sea_level_are_outlets_where_the_rivers_end():
+    bed, grid, outlets = _coast()
+    params = cycle.SurfaceParams(hillslope=None, debris=None, fluvial=cycle.fluvial_of_table_1(k_f=1e-4),
+                                 uplift=1e-4)
+    state = coupled.GlacierState(bed, np.zeros_like(bed), time=100.0)
+    coast = cycle.IceFreeErosion(params, grid, outlets, sea_level=lambda t: 0.0)
+    change = coast(state, 100.0).bed - bed
+    sea = bed <= 0.0
+    assert np.array_equal(coast.base_level, outlets | sea) and sea[:, :11].all() and not sea[:, 11:].any()
+    assert np.all(change[sea] == 0.0)                 # neither eroded nor uplifted: base level
+    # the rivers run west and end at the coast: a land column drains the 12, 11, … 1 cells east of
+    # it; Δz = U·dt − k_f·A^m·S^n·dt with A in m², S = 4/20 to the receiver, m = 0.4, n = 1
+    area = np.arange(12, 0, -1) * 400.0
+    expected = 1e-4 * 100.0 - 1e-4 * area ** 0.4 * 0.2 * 100.0
+    np.testing.assert_allclose(change[1:-1, 11:-1], np.broadcast_to(expected, (22, 12)), rtol=1e-9)
+    inland = cycle.IceFreeErosion(params, grid, outlets)(state, 100.0).bed - bed
+    np.testing.assert_array_equal(inland[:, 11:], change[:, 11:])   # the same rivers upstream …
+    assert inland[1:-1, 1:11].max() < -0.05          # … that, without a sea, cut on to the west edge
+
+
+def test_the_sea_is_found_again_at_each_update_of_the_drainage():
+    bed, grid, outlets = _coast()
+    params = cycle.SurfaceParams(hillslope=None, debris=None, fluvial=None, drainage_every=2)
+    rising = cycle.IceFreeErosion(params, grid, outlets, sea_level=lambda t: -40.0 + t / 10.0)  # m
+    flooded = []
+    for t in (100.0, 200.0, 300.0):                   # sea at −30, −20, −10 m at the steps' ends
+        rising(coupled.GlacierState(bed, np.zeros_like(bed), time=t), 100.0)
+        flooded.append(int(np.count_nonzero(rising.base_level[5])))
+    assert flooded == [3 + 1, 3 + 1, 8 + 1]          # west columns ≤ sea, and the east edge

@@ -61,6 +61,28 @@ def test_volume_series_is_the_ice_volume_of_every_step():
     assert np.all(np.diff(result.volumes) > 0)  # a glacier growing from nothing under a fixed ELA
 
 
+def test_the_wall_time_of_a_run_is_shared_among_its_parts():
+    """``RunResult.seconds``: every part ≥ 0, the whole run's wall time in all, and a process of
+    ice-free ground that sleeps 20 ms per step shows there."""
+    import time
+
+    bed, grid = _valley()
+
+    def slow_ice_free(state, dt):
+        time.sleep(0.02)
+        return state
+
+    start = time.perf_counter()
+    result = coupled.run(coupled.GlacierState(bed, np.zeros_like(bed)), grid, SIA, 3000.0,
+                         coupled.step_times(200.0, 50.0), after=slow_ice_free)
+    wall = time.perf_counter() - start
+    assert set(result.seconds) == set(coupled.WALL_TIME_PARTS)
+    assert min(result.seconds.values()) >= 0.0
+    assert sum(result.seconds.values()) == pytest.approx(wall, rel=0.02, abs=2e-3)
+    assert result.seconds["ice_free"] == pytest.approx(0.02 * result.steps, rel=0.5)
+    assert result.seconds["ice_flow"] > 0.0 and result.seconds["transport_erosion"] > 0.0
+
+
 def test_inputs_are_not_modified_and_erosion_budget_adds_up():
     bed, grid = _valley()
     h0 = np.where(bed < 2900.0, 0.0, 50.0)

@@ -92,3 +92,18 @@ def test_tet_pipeline_runs_thermal_and_fluvial_over_5_ma(tmp_path: Path) -> None
     summary = json.loads((tmp_path / "run" / "report" / "summary.json").read_text())
     rates = [row["simulated_mm_per_ka"] for row in summary["incision"]["periods"]]
     assert len(rates) == 3 and all(np.isfinite(rates))
+
+
+@pytest.mark.skipif(not (SHARED_DATA / "lr04").is_dir(), reason="needs ../shared/data")
+@pytest.mark.parametrize(("spec", "steps", "glacier_steps"), [
+    ("glacial_fig6", ["relief", "uplift", "fluvial", "cooling", "warming", "landforms"],
+     ["cooling", "warming"]),
+    ("grindelwald_glacial_cycle", ["dem", "cycle", "landforms"], ["cycle"])])
+def test_glacial_case_study_specs_validate(spec: str, steps: list[str], glacier_steps: list[str]) -> None:
+    (PIPELINES / "runs" / spec).mkdir(parents=True, exist_ok=True)
+    result = run_cli("pipeline", "run", PIPELINES / f"{spec}.yaml", "--dry-run")
+    assert result.returncode == 0, result.stderr
+    lines = [line for line in result.stdout.splitlines() if line.startswith("run")]
+    assert [line.split(":")[0].split()[-1] for line in lines] == steps
+    assert [line.split(":")[0].split()[-1] for line in lines if "unerode-cli glaciate " in line] \
+        == glacier_steps

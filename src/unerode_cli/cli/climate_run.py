@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from unerode_cli.cli import glaciate as glaciate_cli
 from unerode_cli.cli.erode import PARAMETER_PANELS, Inflow, Scheme
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
@@ -34,9 +35,21 @@ from unerode_cli.cli.options import (
 from unerode_cli.cli.parameter_options import with_parameter_options
 from unerode_cli.cli.values import Number, Numbers
 
+if TYPE_CHECKING:
+    from unerode_cli.jobs.climate_run import ClimateJob
+
 AGE = Number("ka")
 CHRONOLOGY_PANEL = "Chronology and sea level"
 RUN_PANEL = "Time steps"
+GLACIER_PANEL = "Glaciers (--process glacial)"
+#: The processes' parameters, then the glacier model's (glaciate's panels; a parameter both
+#: offer keeps its first panel, so that the glacier panels hold the glacier model's own).
+PANELS = {**PARAMETER_PANELS,
+          **{f"{title}, with --process glacial": specs for title, specs in glaciate_cli.PARAMETER_PANELS.items()}}
+PROCESS_HELP = ("Processes applied in this order within each step: fluvial, thermal, thermal-ca, hillslope, "
+                "debris; or glacial (forward only: glaciate's glacier model, 001 §3–6, its ELA from the "
+                "chronology) with any of hillslope, debris, fluvial for the ground without ice, "
+                "whose base level follows sea level.")
 
 
 class Direction(str, Enum):
@@ -49,7 +62,7 @@ class ChronologyKind(str, Enum):
     sea_level = "sea-level"
 
 
-@with_parameter_options(PARAMETER_PANELS)
+@with_parameter_options(PANELS)
 def climate_run(
     source: InputDem,
     output: OutputDem,
@@ -61,7 +74,7 @@ def climate_run(
     sea_level: Annotated[Path | None, typer.Option("--sea-level", help="Sea-level table (age ka, m relative to present); default: sea level from δ18O by a linear mapping.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
     d18o_to_sea: Annotated[Any, typer.Option(parser=Numbers("SLOPE,INTERCEPT: two numbers separated by a comma", 2), metavar="SLOPE,INTERCEPT", help="SLOPE,INTERCEPT of sea (m) = INTERCEPT + SLOPE × δ18O (‰) (default: fitted on LR04 vs Spratt & Lisiecki 2016).", rich_help_panel=CHRONOLOGY_PANEL)] = None,
     dt: Annotated[float, typer.Option("--dt", parser=POSITIVE_YEARS, help="Time step (years, > 0).", rich_help_panel=RUN_PANEL)] = 1000.0,
-    process: Annotated[str, typer.Option(help="Processes applied in this order within each step.", rich_help_panel=RUN_PANEL)] = "fluvial,thermal",
+    process: Annotated[str, typer.Option(help=PROCESS_HELP, rich_help_panel=RUN_PANEL)] = "fluvial,thermal",
     snapshots: Annotated[Any, typer.Option(parser=Numbers("ages in ka separated by commas"), metavar="AGES", help="Ages (ka, comma-separated) at which to write OUTPUT_<age>ka snapshots.", rich_help_panel=OUTPUT_PANEL)] = None,
     params: Annotated[Path | None, typer.Option("--params", help="YAML schedule: per-phase parameter values (glacial, end-of-glacial, interglacial) and the downstream K_d range.", rich_help_panel=CHRONOLOGY_PANEL)] = None,
     downstream_below: Annotated[float | None, typer.Option(parser=METRES, help="Downstream region (K_d follows sea level, 000 §5.2): cells below this elevation (m) of the input.", rich_help_panel=BOUNDARY_PANEL)] = None,
@@ -82,6 +95,8 @@ def climate_run(
     scheme: Annotated[Scheme, typer.Option(help="Slope of backward steps: limiter (000 Eq. 12) or upwind (Eq. 10).", rich_help_panel=RUN_PANEL)] = Scheme.limiter,
     method: Annotated[Method, typer.Option(help="Flow routing: mfd or d8.", rich_help_panel=RUN_PANEL)] = Method.mfd,
     thermal_constraints: Annotated[str, typer.Option(help="Un-deposition constraints of thermal unerosion: slope, convexity, rate, or none.", rich_help_panel=RUN_PANEL)] = "slope,convexity,rate",
+    ela_present: Annotated[float | None, typer.Option("--ela-present", parser=Number("m"), help="With --process glacial: today's ELA (m), the ELA at 0 ka; the ELA is linear in the chronology between it and --ela-glacial.", rich_help_panel=GLACIER_PANEL)] = None,
+    ela_glacial: Annotated[float | None, typer.Option("--ela-glacial", parser=Number("m"), help="With --process glacial: the ELA at the last glacial maximum (m), where the chronology is most glacial between 14 and 30 ka.", rich_help_panel=GLACIER_PANEL)] = None,
     dtype: DtypeOpt = Dtype.float32,
     cog: Cog = False,
     co: CreationOptions = None,
@@ -93,11 +108,13 @@ def climate_run(
 ) -> None:
     """Run the processes along a chronology: per-step sea level, climate phase and parameters
     (000 §5), with a coast that follows sea level. Writes the DEM at --to, snapshots
-    (tagged with age, sea level and phase), OUTPUT_timeline.csv and OUTPUT_chronology.png."""
+    (tagged with age, sea level and phase), OUTPUT_timeline.csv and OUTPUT_chronology.png. With
+    --process glacial, glaciers grow and erode forward in time (glaciate's model, 001), their ELA
+    and the sea level of the ground without ice both from the chronology."""
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import SUMMARY, say
         from unerode_cli.cli.progress import progress_bar
-        from unerode_cli.jobs.climate_run import ClimateJob, plan, run_climate
+        from unerode_cli.jobs.climate_run import ClimateJob, is_glacial, plan, run_climate
 
         job = ClimateJob(
             source=source, output=output, chronology=chronology, from_ka=from_ka, to_ka=to_ka,
@@ -110,10 +127,38 @@ def climate_run(
             checkpoint_every=checkpoint_every, resume=resume, max_steps=max_steps,
             allow_substeps=not no_substep, scheme=scheme.value, method=method.value,
             constraints=thermal_constraints, dtype=dtype.value, cog=cog, co=co,
-            overwrite=overwrite, preview=preview, parameter_values=parameter_values or {},
+            overwrite=overwrite, preview=preview, ela_present=ela_present, ela_glacial=ela_glacial,
+            parameter_values=parameter_values or {},
         )
+        if is_glacial(process):
+            _run_glacial(job, verbose - quiet)
+            return
         prepared = plan(job, on_note=lambda text: say(text, verbose - quiet))
         with progress_bar(prepared.steps, "climate-run", verbose - quiet) as advance:
             summary = run_climate(prepared, on_step=advance,
                                   on_note=lambda text: say(text, verbose - quiet))
         say(summary, verbose - quiet, SUMMARY)
+
+
+def _run_glacial(job: ClimateJob, verbosity: int) -> None:
+    """climate-run with glaciers: glaciate's job (001) from --from to --to along the chronology,
+    with the sea level of ``plan_glacial`` as the base level of the ground without ice; writes
+    OUTPUT, OUTPUT_timeline.csv and OUTPUT_chronology.png (and --preview)."""
+    from unerode_cli.cli.common import SUMMARY, say
+    from unerode_cli.cli.progress import simulated_time_bar
+    from unerode_cli.jobs.climate_run import COMMAND, plan_glacial, timeline_path
+    from unerode_cli.jobs.glaciate import GlacierJob, plan, run_job
+
+    glacial = plan_glacial(job, on_note=lambda text: say(text, verbosity))
+    prepared = plan(GlacierJob(
+        source=job.source, output=job.output, dt=job.dt, allow_substeps=job.allow_substeps,
+        hillslope=glacial.hillslope, debris=glacial.debris, fluvial=glacial.fluvial,
+        timeline=timeline_path(job.output), ela_chronology=job.chronology, ela_kind=job.chronology_kind,
+        ela_present=job.ela_present, ela_glacial=job.ela_glacial, from_ka=job.from_ka, to_ka=job.to_ka,
+        dtype=job.dtype, cog=job.cog, co=job.co, overwrite=job.overwrite, preview=job.preview,
+        parameter_values=glacial.parameter_values, sea_level=glacial.sea_level, command=COMMAND,
+        context=glacial.context,
+    ))
+    with simulated_time_bar(float(prepared.times[-1]), COMMAND, verbosity) as advance:
+        summary = run_job(prepared, on_step=advance, on_note=lambda text: say(text, verbosity))
+    say(summary, verbosity, SUMMARY)

@@ -48,6 +48,7 @@ files; inputs are never modified.
 from __future__ import annotations
 
 import math
+import time as clock
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -236,7 +237,9 @@ class GlacierState:
 class StepReport:
     """What one step did: ``time`` (y) at its end, ``dt`` (y), ice ``volume`` (m³) at its end,
     the ``flow`` of its start geometry, ``substeps`` of explicit transport (1 for multi-scale),
-    ``eroded`` volume of bedrock removed (m³, ≥ 0)."""
+    ``eroded`` volume of bedrock removed (m³, ≥ 0); wall-clock seconds spent on the ice flow
+    (``flow_seconds``) and on the rest of the step (``transport_seconds``: mass balance, transport,
+    erosion)."""
 
     time: float
     dt: float
@@ -244,6 +247,8 @@ class StepReport:
     flow: FlowField
     substeps: int
     eroded: float
+    flow_seconds: float = 0.0
+    transport_seconds: float = 0.0
 
 
 def ice_volume(thickness: np.ndarray, grid: Grid) -> float:
@@ -350,8 +355,10 @@ def step(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, dt: f
     valid = grid.valid
     h = np.where(valid, state.thickness, 0.0)
     state = replace(state, thickness=h)
+    start = clock.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # a blow-up: Diverged below
         flow = flow_field(state.bed, h, grid, params, warm=state.lattice)
+        flow_done = clock.perf_counter()
         substeps = 1
         if params.transport == "multiscale":
             h_new = multiscale.step(h, *flow.mean, _mass_balance(state, grid, params, ela), grid, dt,
@@ -365,7 +372,8 @@ def step(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, dt: f
     bed = state.bed + change
     eroded = -float(np.sum(change)) * grid.cell_area if params.erosion else 0.0
     new = GlacierState(bed, h_new, state.time + dt, flow.lattice)
-    return new, StepReport(new.time, dt, ice_volume(h_new, grid), flow, substeps, eroded)
+    return new, StepReport(new.time, dt, ice_volume(h_new, grid), flow, substeps, eroded,
+                           flow_done - start, clock.perf_counter() - flow_done)
 
 
 def _explicit(state: GlacierState, flow: FlowField, grid: Grid, params: CoupledParams, ela: Ela,
@@ -416,13 +424,19 @@ def step_times(duration: float, dt: float, stops: Sequence[float] = ()) -> np.nd
     return np.array(out)
 
 
+#: The parts of a run's wall-clock time in ``RunResult.seconds``.
+WALL_TIME_PARTS = ("ice_flow", "transport_erosion", "ice_free", "other")
+
+
 @dataclass
 class RunResult:
     """A run: the final ``state``, the ice-volume series (``times`` y, ``volumes`` m³, from t = 0,
     one entry per step taken), and totals: ``steps``, ``substeps`` (explicit transport),
     ``resolves`` (steps whose velocities were iterated), ``evaluations`` (L-BFGS energy
     evaluations), ``unconverged`` (solves that hit their iteration limit), ``max_residual``,
-    ``eroded`` (m³ of bedrock removed)."""
+    ``eroded`` (m³ of bedrock removed), and ``seconds``: wall-clock time by part of the loop
+    (``WALL_TIME_PARTS``: the ice flow, transport with mass balance and erosion, the processes of
+    ice-free ground, and the rest: the checks and callbacks of ``run``)."""
 
     state: GlacierState
     times: list[float]
@@ -434,6 +448,7 @@ class RunResult:
     unconverged: int = 0
     max_residual: float = 0.0
     eroded: float = 0.0
+    seconds: dict[str, float] = field(default_factory=lambda: dict.fromkeys(WALL_TIME_PARTS, 0.0))
 
     def add(self, state: GlacierState, report: StepReport) -> None:
         flow = report.flow
@@ -447,6 +462,8 @@ class RunResult:
         self.unconverged += not flow.converged
         self.max_residual = max(self.max_residual, flow.residual)
         self.eroded += report.eroded
+        self.seconds["ice_flow"] += report.flow_seconds
+        self.seconds["transport_erosion"] += report.transport_seconds
 
 
 def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times: Sequence[float],
@@ -465,6 +482,7 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
     asked (``multiscale``: laying a long step of accumulation at once leaves a steep edge that
     can blow up). Every step taken enters the volume series."""
     params.validate(grid.shape)
+    started = clock.perf_counter()
     result = RunResult(state, [state.time], [ice_volume(state.thickness, grid)])
     cap = math.inf
     ramp = params.transport == "multiscale"
@@ -478,7 +496,9 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
                 length = end - state.time
             state, report = step(state, grid, params, ela, length)
             if after is not None:
+                ice_free_start = clock.perf_counter()
                 state = after(state, length)
+                result.seconds["ice_free"] += clock.perf_counter() - ice_free_start
             if state.time >= end - 1e-9 * length:
                 state = replace(state, time=end)
             result.add(state, report)
@@ -487,4 +507,5 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
             cap *= RAMP_FACTOR
         if on_step is not None:
             on_step(state, report)
+    result.seconds["other"] = clock.perf_counter() - started - sum(result.seconds.values())
     return result

@@ -13,11 +13,19 @@ of ``coupled.step`` (mass balance, ice flow, transport, glacial erosion), by ope
    (001 §6.3). The latter is ``processes.fluvial`` with K_d = 0 (no deposition) and a
    precipitation of 1 m/y, so that its discharge Q = p·A (m³/y) is the drainage area A (m²) in
    number and its K is 001's k_f. Both follow the routing of the ice surface b + H towards the
-   map's outlets and the shielded cells: a glacier is the base level of the slopes and streams
-   that reach it (they feed its surface); the routing fills depressions (priority flood), so
-   rivers cross lakes. 001 §6 updates the drainage every 20 steps; so does this loop
-   (``drainage_every``), holding the shielded cells of the last update fixed in between;
-3. tectonic uplift U·dt (m) on every cell of the domain but the outlets, under the ice too.
+   base level (the map's outlets and, with a sea level, the sea) and the shielded cells: a
+   glacier is the base level of the slopes and streams that reach it (they feed its surface);
+   the routing fills depressions (priority flood), so rivers cross lakes. 001 §6 updates the
+   drainage every 20 steps; so does this loop (``drainage_every``), holding the shielded cells
+   of the last update fixed in between;
+3. tectonic uplift U·dt (m) on every cell of the domain but the base level, under the ice too.
+
+Sea level (optional, e.g. climate-run's along a chronology, 000 §5): a function of the time
+(y since the start of the run → m, the DEM's vertical datum being present sea level). The cells
+of the domain whose bed is at or below it join the base level, like the map's edges: hill
+slopes and rivers end there and they are not uplifted. They are found again at each update of
+the drainage (every ``drainage_every`` steps, the first step included), at the time the step
+ends. Without a sea level the base level is the map's outlets alone.
 
 The processes' own uplift is left at 0; each process returns a change (``SurfaceChange``), applied
 here in turn. Units: metres, years. Nothing here reads or writes files.
@@ -25,6 +33,8 @@ here in turn. Units: metres, years. Nothing here reads or writes files.
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -122,13 +132,21 @@ class IceFreeErosion:
     """Steps the processes of ice-free ground after each glacier step (module docstring); keeps
     the routing between its updates and the volumes (m³) each process carried out of the bed so
     far (``removed``: its outflux; hill slopes may bring material in from a fixed cell higher than
-    its neighbours, a negative outflux). ``outlets``: bool[ny, nx] base-level cells of the map."""
+    its neighbours, a negative outflux). ``outlets``: bool[ny, nx] base-level cells of the map;
+    ``sea_level``: None, or the sea level (m) at a time (y since the start of the run), whose
+    cells join the base level (module docstring). ``base_level``: bool[ny, nx], the outlets and
+    the sea's cells of the last update. ``seconds``: wall-clock time spent so far on each process,
+    on the updates of the drainage (routing) and on the uplift."""
 
-    def __init__(self, params: SurfaceParams, grid: Grid, outlets: np.ndarray) -> None:
+    def __init__(self, params: SurfaceParams, grid: Grid, outlets: np.ndarray,
+                 sea_level: Callable[[float], float] | None = None) -> None:
         params.validate(grid)
         self.params, self.grid = params, grid
         self.outlets = np.asarray(outlets, dtype=bool) & grid.valid
+        self.sea_level = sea_level
+        self.base_level = self.outlets
         self.steps = 0
+        self.seconds = dict.fromkeys(("hillslope", "drainage", "debris", "fluvial", "uplift"), 0.0)
         self._routing = None
         self._fixed: np.ndarray | None = None
         self.removed = {"hillslope": 0.0, "debris": 0.0, "fluvial": 0.0}
@@ -137,29 +155,60 @@ class IceFreeErosion:
         """bool[ny, nx]: cells of the domain under ice thicker than the shield."""
         return self.grid.valid & (np.asarray(thickness) > self.params.shield)
 
+    def sea(self, state: GlacierState) -> np.ndarray:
+        """bool[ny, nx]: cells of the domain whose bed is at or below the sea level (m) at
+        ``state.time`` (y); none without a sea level."""
+        if self.sea_level is None:
+            return np.zeros(self.grid.shape, dtype=bool)
+        with np.errstate(invalid="ignore"):
+            return self.grid.valid & (state.bed <= self.sea_level(state.time))
+
     def __call__(self, state: GlacierState, dt: float) -> GlacierState:
         """The state after one step dt (y) of the ice-free processes and uplift."""
         from unerode_cli.hydro.routing import route
 
         p, grid = self.params, self.grid
+        clock = Stopwatch(self.seconds)
+        update = self.steps % p.drainage_every == 0
+        if update:
+            self.base_level = self.outlets | self.sea(state)
         bed = state.bed
         if p.hillslope is not None:
-            change = hillslope.step(bed, grid, self.outlets | self.shielded(state.thickness), p.hillslope, dt)
+            change = hillslope.step(bed, grid, self.base_level | self.shielded(state.thickness), p.hillslope,
+                                    dt)
             bed = bed + change.dh
             self.removed["hillslope"] += change.budget.outflux
+            clock.lap("hillslope")
         if p.debris is not None or p.fluvial is not None:
-            if self.steps % p.drainage_every == 0:
-                self._fixed = self.outlets | self.shielded(state.thickness)
+            if update:
+                self._fixed = self.base_level | self.shielded(state.thickness)
                 self._routing = route(bed + state.thickness, grid, self._fixed, "d8")
+                clock.lap("drainage")
             if p.debris is not None:
                 change = debris.step(bed, grid, self._fixed, p.debris, dt, routing=self._routing)
                 bed = bed + change.dh
                 self.removed["debris"] += change.budget.outflux
+                clock.lap("debris")
             if p.fluvial is not None:
                 change = fluvial.step(bed, grid, self._fixed, p.fluvial, dt, routing=self._routing,
                                       validated=True)
                 bed = bed + change.dh
                 self.removed["fluvial"] += change.budget.outflux
-        uplift = np.where(grid.valid & ~self.outlets, np.asarray(p.uplift, dtype=np.float64) * dt, 0.0)
+                clock.lap("fluvial")
+        uplift = np.where(grid.valid & ~self.base_level, np.asarray(p.uplift, dtype=np.float64) * dt, 0.0)
         self.steps += 1
+        clock.lap("uplift")
         return replace(state, bed=bed + uplift)
+
+
+class Stopwatch:
+    """Adds the wall-clock seconds since the last lap (or its creation) to ``totals[name]``."""
+
+    def __init__(self, totals: dict[str, float]) -> None:
+        self.totals = totals
+        self.last = time.perf_counter()
+
+    def lap(self, name: str) -> None:
+        now = time.perf_counter()
+        self.totals[name] += now - self.last
+        self.last = now

@@ -8,6 +8,12 @@ Ages are in ka at the edges (options, files, tags) and converted to years inside
 its middle age, and the boundary nodes are set, before the step, to their base level at the
 step's end age (``run.boundaries.BaseLevels``), e.g. h_b(t) = h_b(start) + (sea(t) − sea(start))
 on the coast, so that after each step they follow it exactly.
+
+With ``glacial`` in ``--process`` the run is glaciate's coupled glacier model (001 §3–6) instead,
+forward only, with the ELA from the same chronology; ``plan_glacial`` checks such a run and gives
+what the glacier job needs besides the options: the ice-free processes asked for and the sea
+level through the run, the base level of their routing (one chronology, both forcings). The
+command line hands that to the glaciate job (no job imports another).
 """
 
 from __future__ import annotations
@@ -24,12 +30,13 @@ from typing import Any
 import numpy as np
 
 from unerode_cli import __version__
-from unerode_cli.climate.chronology import Series
+from unerode_cli.climate.chronology import YEARS_PER_KA, Series
 from unerode_cli.climate.phases import PHASES, PhaseThresholds, classify
 from unerode_cli.climate.schedule import DOWNSTREAM_K_D, Schedule, downstream_mask
 from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, sea_level
 from unerode_cli.climate.uplift import FACTOR_COLUMN, RATE_COLUMN, UpliftHistory
 from unerode_cli.errors import InputError
+from unerode_cli.glacier import cycle, erosion, massbalance
 from unerode_cli.io.checkpoints import read_checkpoint, write_checkpoint
 from unerode_cli.io.chronology_files import read_age_table, read_series
 from unerode_cli.io.coarse_runs import (
@@ -63,6 +70,7 @@ from unerode_cli.run.outputs import (
 )
 from unerode_cli.run.parameter_maps import resolve
 from unerode_cli.run.registry import (
+    GLACIAL,
     REGISTRY,
     build_processes,
     given_values,
@@ -74,6 +82,16 @@ from unerode_cli.run.runner import run
 from unerode_cli.viz.chronology_plot import save_chronology_plot
 
 COMMAND = "climate-run"
+#: Glacier steps (y) longer than this get a note (001 §5: 10–100 y).
+GLACIER_DT_NOTE = 100.0
+#: What ``--process`` may list with ``glacial``: glaciate's processes of ice-free ground (001 §6).
+GLACIAL_PROCESSES = (GLACIAL, "hillslope", "debris", "fluvial")
+#: Parameters only the glacier model takes: its mass balance (001 Eq. 2; the ELA comes from the
+#: chronology), glacial erosion (001 §6.1) and the k_f of its rivers (001 §6.3).
+GLACIER_ONLY_PARAMETERS = (*(s for s in massbalance.PARAMETERS if s.name != "ela"), *erosion.PARAMETERS,
+                           cycle.K_F)
+#: Every parameter a run with glaciers takes: those, the ice-free processes' and the uplift.
+GLACIAL_PARAMETERS = frozenset(spec.name for spec in (*GLACIER_ONLY_PARAMETERS, *cycle.PARAMETERS))
 
 
 @dataclass(frozen=True)
@@ -116,6 +134,8 @@ class ClimateJob:
     inflow: Path | None = None
     inflow_from: Path | None = None
     write_fluxes: bool = False
+    ela_present: float | None = None
+    ela_glacial: float | None = None
     parameter_values: dict[str, str | None] = field(default_factory=dict)
 
     @property
@@ -133,6 +153,39 @@ class ClimateJob:
         """Ages (ka) of the nesting rasters of ``--write-fluxes``: the start, the snapshots and
         the end."""
         return sorted({self.from_ka, *self.snapshots_ka, self.to_ka})
+
+
+@dataclass(frozen=True)
+class SeaLevelSource:
+    """Sea level (m relative to present) by age as climate-run takes it (000 §5.1–5.2): from the
+    chronology when it is a sea-level curve, else from ``--sea-level``, else from the δ18O
+    chronology through ``mapping`` (``climate.sealevel``)."""
+
+    sea: Series | None
+    d18o: Series | None
+    mapping: SeaLevelMapping
+
+    @classmethod
+    def of(cls, job: ClimateJob, chronology: Series, sea: Series | None,
+           mapping: SeaLevelMapping) -> SeaLevelSource:
+        if job.chronology_kind == "sea-level":
+            return cls(chronology, None, mapping)
+        return cls(sea, chronology if job.chronology_kind == "d18o" else None, mapping)
+
+    @property
+    def series(self) -> Series:
+        """The table the sea level is read from (sea level, else δ18O)."""
+        series = self.sea if self.sea is not None else self.d18o
+        assert series is not None
+        return series
+
+    def at(self, ages_ka: np.ndarray) -> np.ndarray:
+        """Sea level (m) at ``ages_ka`` (ka); ValueError (one sentence) outside the table."""
+        return np.asarray(sea_level(ages_ka, self.sea, self.d18o, self.mapping), dtype=float)
+
+    def since(self, from_ka: float) -> Callable[[float], float]:
+        """The sea level (m) at t years after the age ``from_ka`` (ka) of a forward run."""
+        return lambda time_y: float(self.at(np.asarray(from_ka - time_y / YEARS_PER_KA)))
 
 
 @dataclass
@@ -202,27 +255,19 @@ def _steps(job: ClimateJob) -> int:
     return round(count)
 
 
-def _forcing(job: ClimateJob, steps: int, chronology: Series, sea: Series | None,
-             mapping: SeaLevelMapping) -> Forcing:
+def _forcing(job: ClimateJob, steps: int, sea: SeaLevelSource) -> Forcing:
     sign = 1.0 if job.backward else -1.0
     k = np.arange(1, steps + 1, dtype=np.float64)
     end = job.from_ka + sign * k * job.dt / 1000.0
     mid = end - sign * 0.5 * job.dt / 1000.0
-    d18o = chronology if job.chronology_kind == "d18o" else None
-    if job.chronology_kind == "sea-level":
-        sea = chronology
-
-    def sea_of(ages: np.ndarray) -> np.ndarray:
-        return np.asarray(sea_level(ages, sea, d18o, mapping), dtype=float)
-
     try:
-        sea_mid, sea_end = sea_of(mid), sea_of(end)
-        sea_start = float(sea_of(np.array([job.from_ka]))[0])
+        sea_mid, sea_end = sea.at(mid), sea.at(end)
+        sea_start = float(sea.at(np.array([job.from_ka]))[0])
         # phases need the trend around each age: classify on a 1 ka grid, read at the middles
         lo, hi = min(job.from_ka, job.to_ka), max(job.from_ka, job.to_ka)
-        source = sea if sea is not None else chronology
+        source = sea.series
         grid = np.arange(max(source.start_ka, lo - 30.0), min(source.end_ka, hi + 30.0) + 1e-9, 1.0)
-        phases_on_grid = classify(grid, sea_of(grid), PhaseThresholds())
+        phases_on_grid = classify(grid, sea.at(grid), PhaseThresholds())
     except ValueError as exc:
         raise InputError(f"{exc}") from None
     # nearest grid age (1 ka apart), the younger one on ties
@@ -250,6 +295,7 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
     """Check everything before the first step: options, outputs, inputs, chronology range;
     ``on_note`` hears what was changed in the tables as read (rows left out or sorted)."""
     names = parse_process_list(job.process, job.backward)
+    _check_no_glacier_options(job)
     steps = _steps(job)
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co,
                                job.overwrite or job.resume, job.preview)
@@ -274,10 +320,8 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
     terrain = read_terrain(job.source)
     terrain.check_valid(job.source)
     outputs.check_source(terrain, job.source)
-    chronology = read_series(job.chronology, job.chronology_kind, on_note=on_note)
-    sea = read_series(job.sea_level_file, "sea-level", on_note=on_note) if job.sea_level_file else None
-    mapping = SeaLevelMapping(*job.d18o_mapping) if job.d18o_mapping else DEFAULT_MAPPING
-    forcing = _forcing(job, steps, chronology, sea, mapping)
+    chronology, sea = _read_sea_level(job, on_note)
+    forcing = _forcing(job, steps, sea)
     try:
         schedule = Schedule.from_mapping(read_yaml_mapping(
             job.schedule_file, "the schedule file", "a mapping of phases to parameters",
@@ -318,6 +362,144 @@ def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> Prepa
                          f"{job.to_ka:g} ka.")
     return PreparedClimateRun(job, terrain, names, base, schedule, forcing, base_levels, downstream,
                               steps, outputs, chronology, _fingerprint(job), uplift, inflow, nesting)
+
+
+def is_glacial(process: str) -> bool:
+    """Whether ``--process`` lists the glacier model (``glacial``): then ``plan_glacial``."""
+    return GLACIAL in (name.strip().lower() for name in process.split(","))
+
+
+@dataclass(frozen=True)
+class GlacialRun:
+    """What a climate-run with glaciers adds to its options (``plan_glacial``): the processes of
+    ice-free ground on (001 §6.2–6.4), the sea level (m) at t years after ``--from`` (None with
+    ``--no-sea-outlets``), the parameter values for the glacier model (name → text), and the
+    parameters its history adds (the sea level's source)."""
+
+    hillslope: bool
+    debris: bool
+    fluvial: bool
+    sea_level: Callable[[float], float] | None
+    parameter_values: dict[str, str | None]
+    context: dict[str, Any]
+
+
+#: climate-run's options that mean nothing to the glacier model: option → (``ClimateJob`` field,
+#: why), refused when given (``_check_glacial_options``).
+_NOT_GLACIAL = {
+    "--params": ("schedule_file", "the glacier model has no schedule of parameters by climate phase"),
+    "--downstream-below": ("downstream_below", "its rivers erode and do not deposit"),
+    "--downstream-mask": ("downstream_mask", "its rivers erode and do not deposit"),
+    "--uplift-map": ("uplift_map", "its uplift is a number or a raster, not a table through time"),
+    "--dirichlet": ("dirichlet", "its base level is the map's edges and the sea"),
+    "--coast": ("coast", "its base level is the map's edges and the sea"),
+    "--edge-base": ("edge_base", "its base level is the map's edges and the sea"),
+    "--outlets": ("outlets", "its base level is all the map's edges and the sea"),
+    "--inflow": ("inflow", "rivers entering the map feed the fluvial model of 000 only"),
+    "--inflow-from": ("inflow_from", "rivers entering the map feed the fluvial model of 000 only"),
+    "--write-fluxes": ("write_fluxes", "the nesting rasters come from the fluvial model of 000 only"),
+    "--resume": ("resume", "a glacier run is not checkpointed"),
+    "--max-steps": ("max_steps", "a glacier run is not checkpointed"),
+    "--checkpoint-every": ("checkpoint_every", "a glacier run is not checkpointed"),
+    "--scheme": ("scheme", "it sets the slope of backward steps, and glaciers run forward only"),
+    "--thermal-constraints": ("constraints", "thermal erosion does not run with glaciers"),
+    "--method": ("method", "the rivers of ice-free ground follow steepest descent (D8)"),
+    "--snapshots": ("snapshots_ka", "the glacier run writes the bed at --to and one timeline row per step"),
+}
+
+
+def plan_glacial(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> GlacialRun:
+    """Check a climate-run with glaciers (``--process glacial[,hillslope,debris,fluvial]``)
+    before any work, and read the sea level along it; the glacier job checks the rest (the ELA's
+    chronology, outputs, parameter values)."""
+    names = _glacial_names(job.process)
+    if job.backward:
+        raise InputError("glaciers run forward in time only, so --to must be younger than --from: ice "
+                         "flow and glacial erosion cannot be reversed, and the ice that once covered "
+                         "the DEM is not known to start from.")
+    if job.ela_present is None or job.ela_glacial is None:
+        raise InputError("--process glacial needs --ela-present and --ela-glacial (today's ELA and the "
+                         "ELA at the last glacial maximum, m) to turn the chronology into the ELA.")
+    _check_glacial_options(job)
+    if job.dt > GLACIER_DT_NOTE and on_note is not None:
+        on_note(f"note: --dt {job.dt:g} y is long for glaciers: 001 §5 steps them 10–100 y (its Fig. 11: "
+                "the ice volume within 1 % at 10–20 y, about 10 % at 100 y).")
+    values = _glacial_values(job)
+    _steps(job)
+    _, sea = _read_sea_level(job, on_note)
+    try:
+        sea.at(np.array([job.from_ka, job.to_ka]))  # the table covers the run
+    except ValueError as exc:
+        raise InputError(f"{str(exc).rstrip('.')}.") from None
+    mapping = None if sea.d18o is None else asdict(sea.mapping)
+    context = {"process": job.process, "chronology_kind": job.chronology_kind,
+               "sea_level_file": job.sea_level_file, "d18o_to_sea": mapping, "sea_outlets": job.sea_outlets}
+    return GlacialRun("hillslope" in names, "debris" in names, "fluvial" in names,
+                      sea.since(job.from_ka) if job.sea_outlets else None, values, context)
+
+
+def _glacial_names(process: str) -> list[str]:
+    """The names of ``--process`` with ``glacial``, each one of ``GLACIAL_PROCESSES``, once."""
+    names = [name.strip().lower() for name in process.split(",") if name.strip()]
+    for name in names:
+        if name.startswith("thermal"):
+            raise InputError(f"{name} cannot run with glacial: the glacier model couples only hillslope, "
+                             "debris and fluvial (001 §6), and its debris flow takes the place of thermal "
+                             "erosion on slopes steeper than the critical angle.")
+        if name not in GLACIAL_PROCESSES:
+            raise InputError(f"unknown process '{name}'; with glacial choose among "
+                             f"{', '.join(GLACIAL_PROCESSES[1:])}.")
+    if len(set(names)) != len(names):
+        raise InputError(f"--process names a process twice: {process}.")
+    return names
+
+
+def _check_glacial_options(job: ClimateJob) -> None:
+    """Refuse the options of ``_NOT_GLACIAL`` that differ from their default: given, or for the
+    few with a default value (e.g. ``--outlets all``), given another value."""
+    defaults = {f.name: f.default for f in dataclasses.fields(ClimateJob)}
+    for option, (name, why) in _NOT_GLACIAL.items():
+        if getattr(job, name) != defaults[name]:
+            raise InputError(f"{option} does not apply with --process glacial ({why}); drop it.")
+
+
+def _glacial_values(job: ClimateJob) -> dict[str, str | None]:
+    """The given parameter values, each one of the glacier model's (``GLACIAL_PARAMETERS``); the
+    uplift a number or a raster."""
+    given = {name: text for name, text in job.parameter_values.items() if text is not None}
+    for name in given:
+        if name not in GLACIAL_PARAMETERS:
+            raise InputError(f"{_flag(name)} does not apply with --process glacial, whose rivers erode by "
+                             "k_f·A^m·S^n (--k-f, 001 §6.3) and whose other parameters are the mass "
+                             "balance, glacial erosion, hillslope, debris-flow and uplift ones; drop it.")
+    if _is_table(given.get(UPLIFT.name)):
+        raise InputError("--uplift with --process glacial is a number (m/y) or a raster, not a table "
+                         "through time.")
+    return given
+
+
+def _check_no_glacier_options(job: ClimateJob) -> None:
+    """Refuse, in a run without glaciers, the options only the glacier model takes."""
+    if job.ela_present is not None or job.ela_glacial is not None:
+        raise InputError("--ela-present and --ela-glacial set the ELA of the glaciers; add glacial to "
+                         "--process.")
+    for spec in GLACIER_ONLY_PARAMETERS:
+        if job.parameter_values.get(spec.name) is not None:
+            raise InputError(f"{_flag(spec.name)} is a parameter of the glacier model (001); add glacial "
+                             "to --process.")
+
+
+def _flag(name: str) -> str:
+    """The option of a parameter: ``k_f`` → ``--k-f``."""
+    return f"--{name.replace('_', '-')}"
+
+
+def _read_sea_level(job: ClimateJob, on_note: Callable[[str], None] | None) -> tuple[Series, SeaLevelSource]:
+    """The chronology, and the sea level by age from it, ``--sea-level`` and ``--d18o-to-sea``."""
+    chronology = read_series(job.chronology, job.chronology_kind, on_note=on_note)
+    sea = read_series(job.sea_level_file, "sea-level", on_note=on_note) if job.sea_level_file else None
+    mapping = SeaLevelMapping(*job.d18o_mapping) if job.d18o_mapping else DEFAULT_MAPPING
+    return chronology, SeaLevelSource.of(job, chronology, sea, mapping)
 
 
 def _check_nesting_options(job: ClimateJob, names: list[str]) -> None:

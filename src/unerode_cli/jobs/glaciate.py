@@ -12,12 +12,17 @@ and the solver statistics), the final ice thickness (``--ice``), surface velocit
 two bands vx, vy in m/y, x east, y along the rows, i.e. south) and basal speed (``--sliding``,
 m/y) of the final geometry, and ice-thickness snapshots ``ICE_001.tif``... (``--ice`` or
 ``OUT_ice``) every ``--snapshot-every`` years.
+
+A job may carry a sea level through time (``GlacierJob.sea_level``, e.g. climate-run's along the
+chronology that drives the ELA): its cells become base level of the ice-free processes
+(``glacier.cycle``) and the timeline gains a ``sea_level_m`` column.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +44,8 @@ from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
 from unerode_cli.run.outputs import (
+    AGE_TAG,
+    SEA_TAG,
     TIME_TAG,
     Outputs,
     check_png,
@@ -64,7 +71,13 @@ DIAGNOSTIC_MAX_ITER = 20000
 
 @dataclass(frozen=True)
 class GlacierJob:
-    """What the user asked for (lengths in m, times in years, the background slope in degrees)."""
+    """What the user asked for (lengths in m, times in years, the background slope in degrees).
+
+    ``sea_level``: None, or the sea level (m, relative to present) at a time (y since the start):
+    a base level of the ice-free processes (``glacier.cycle``). ``command`` names the run in its
+    history and summary, ``context`` adds to the parameters of its history (e.g. climate-run's
+    sea-level source).
+    """
 
     source: Path
     output: Path | None
@@ -109,6 +122,9 @@ class GlacierJob:
     overwrite: bool = False
     preview: Path | None = None
     parameter_values: dict[str, str | None] = field(default_factory=dict)
+    sea_level: Callable[[float], float] | None = None
+    command: str = COMMAND
+    context: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -347,9 +363,12 @@ def _provenance(job: GlacierJob, params: coupled.CoupledParams, given: dict[str,
             "allow_substeps": job.allow_substeps, "erosion": job.erosion, "ice_thickness": job.ice_thickness,
             "diagnostic": job.diagnostic, "hillslope": job.hillslope, "debris": job.debris,
             "fluvial": job.fluvial, "shield_thickness_m": job.shield_thickness,
-            "drainage_every": job.drainage_every,
+            "drainage_every": job.drainage_every, "ela_chronology": job.ela_chronology,
+            "ela_kind": job.ela_kind, "ela_present": job.ela_present, "ela_glacial": job.ela_glacial,
+            "ela_lapse_rate": job.ela_lapse_rate, "from_ka": job.from_ka, "to_ka": job.to_ka,
             "flow_rtol": DIAGNOSTIC_RTOL if job.diagnostic else params.flow_rtol,
-            **{spec.name: given.get(spec.name, spec.default) for spec in (*PARAMETERS, *SURFACE_PARAMETERS)}}
+            **{spec.name: given.get(spec.name, spec.default) for spec in (*PARAMETERS, *SURFACE_PARAMETERS)},
+            **job.context}
 
 
 # --- running --------------------------------------------------------------------------------------
@@ -400,7 +419,8 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
             bed_guard.check(new.bed, new.time, where)
             surface_guard.check(new.bed + new.thickness, new.time, where)
             if job.timeline is not None:
-                timeline.append(_timeline_row(prepared, new, report, ice_free, outlets))
+                timeline.append(_timeline_row(prepared, new, report, ice_free,
+                                              outlets if ice_free is None else ice_free.base_level))
             if on_step is not None:
                 on_step(new.time, _step_info(report))
 
@@ -421,15 +441,17 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
             raise RunFailure(f"{exc}; lower --dt or use --transport explicit") from None
     final = result.state
     stats = _statistics(result, terrain, time.perf_counter() - start, snapshots, note)
+    stats["wall_time_by_part_s"] = dict(result.seconds)
     if ice_free is not None:
         stats["ice_free_removed_m3"] = dict(ice_free.removed)
+        stats["ice_free_wall_time_s"] = dict(ice_free.seconds)
     flow = _final_flow(prepared, final) if (job.velocity or job.sliding) else None
     if flow is not None:
         stats["final_flow"] = _flow_statistics(flow)
     bed = terrain.with_elevation(final.bed)
-    bed.tags[TIME_TAG] = repr(final.time)
+    bed.tags.update(_time_tags(prepared, final.time))
     assert job.output is not None
-    save(bed, Outputs(job.output, prepared.write, job.overwrite, job.preview), COMMAND,
+    save(bed, Outputs(job.output, prepared.write, job.overwrite, job.preview), job.command,
          prepared.parameters, stats)
     if job.ice is not None:
         _save_layer(prepared, final.thickness, job.ice, "m", stats, final.time)
@@ -440,12 +462,12 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         stats["lakes"] = asdict(lakes.lake_stats(depth, grid))
         _save_layer(prepared, depth, job.lakes, "m", stats, final.time)
     if job.timeline is not None:
-        write_table(job.timeline, list(TIMELINE_COLUMNS), timeline)
+        write_table(job.timeline, list(TIMELINE_COLUMNS) + ([SEA_COLUMN] if job.sea_level else []), timeline)
     if prepared.chronology is not None:
         _write_chronology_plot(prepared, result)
-    summary = (f"{COMMAND}: {result.steps} steps to t = {final.time:g} y; ice volume "
-               f"{result.volumes[-1] / 1e9:.4g} km³; removed {result.eroded:.4g} m³ "
-               f"of bedrock; wrote {job.output}")
+    summary = (f"{job.command}: {result.steps} steps to t = {final.time:g} y"
+               f"{_forcing_summary(prepared, result)}; ice volume {result.volumes[-1] / 1e9:.4g} km³; "
+               f"removed {result.eroded:.4g} m³ of bedrock; wrote {job.output}")
     if result.unconverged:
         summary += (f"\nnote: {result.unconverged} of {result.steps} velocity solves stopped at "
                     f"{prepared.params.flow_max_iter} iterations (largest residual "
@@ -466,21 +488,59 @@ def _write_chronology_plot(prepared: PreparedGlacierJob, result: coupled.RunResu
                                      np.array(result.volumes), title=job.output.name)
 
 
+def _age(prepared: PreparedGlacierJob, time_y: float) -> float | None:
+    """The age (ka) at ``time_y`` (y since the start) of a run along a chronology, else None."""
+    job = prepared.job
+    if job.from_ka is None or job.ela_chronology is None:
+        return None
+    return job.from_ka - time_y / YEARS_PER_KA
+
+
+def _time_tags(prepared: PreparedGlacierJob, time_y: float) -> dict[str, str]:
+    """Tags of the bed at ``time_y`` (y): the time, and along a chronology the age (ka) and the
+    sea level (m) when the job has one (as climate-run tags its outputs)."""
+    tags = {TIME_TAG: repr(time_y)}
+    age = _age(prepared, time_y)
+    if age is not None:
+        tags[AGE_TAG] = repr(age)
+    if prepared.job.sea_level is not None:
+        tags[SEA_TAG] = repr(prepared.job.sea_level(time_y))
+    return tags
+
+
+def _forcing_summary(prepared: PreparedGlacierJob, result: coupled.RunResult) -> str:
+    """The forcings of a run along a chronology in words: the ELA range (m) over the steps and,
+    with a sea level, its range (m); empty for other runs."""
+    age = _age(prepared, 0.0)
+    if age is None:
+        return ""
+    times = np.asarray(result.times)
+    ela = [float(np.mean(coupled.ela_at(prepared.ela, t))) for t in times[:-1]]
+    text = f" from {age:g} to {_age(prepared, times[-1]):g} ka (ELA {min(ela):.0f}–{max(ela):.0f} m"
+    if prepared.job.sea_level is not None:
+        sea = [prepared.job.sea_level(t) for t in times]
+        text += f", sea level {min(sea):+.1f} to {max(sea):+.1f} m"
+    return text + ")"
+
+
 #: Columns of ``--timeline``: one row per step taken (ramp steps included), at its end.
 TIMELINE_COLUMNS = ("time_y", "age_ka", "ela_m", "ice_volume_m3", "ice_area_m2", "glacial_eroded_m3",
                     "ice_free_removed_m3", "lake_area_m2")
+#: The column a job with a sea level adds: the sea level (m) at the step's end.
+SEA_COLUMN = "sea_level_m"
 
 
 def _timeline_row(prepared: PreparedGlacierJob, state: coupled.GlacierState, report: coupled.StepReport,
                   ice_free: cycle.IceFreeErosion | None, outlets: np.ndarray) -> dict[str, Any]:
     """One row of ``--timeline`` (``TIMELINE_COLUMNS``): the ELA of the step (mean of a map), the
     ice, the volume eroded by the glaciers in the step and carried off by the other processes
-    since the start, the area of the lakes."""
+    since the start, the area of the lakes (which drain to ``outlets``); with a sea level, the
+    sea level at the step's end (``SEA_COLUMN``)."""
     job, grid = prepared.job, prepared.terrain.grid
     ela = np.asarray(coupled.ela_at(prepared.ela, state.time - report.dt), dtype=np.float64)
+    sea = {} if job.sea_level is None else {SEA_COLUMN: job.sea_level(state.time)}
     return {"time_y": state.time,
-            "age_ka": None if job.from_ka is None or job.ela_chronology is None
-            else job.from_ka - state.time / YEARS_PER_KA,
+            "age_ka": _age(prepared, state.time),
             "ela_m": float(ela[grid.valid].mean() if ela.ndim else ela),
             "ice_volume_m3": report.volume,
             "ice_area_m2": float(np.count_nonzero(state.thickness[grid.valid] > lakes.ICE_FREE_BELOW))
@@ -488,16 +548,16 @@ def _timeline_row(prepared: PreparedGlacierJob, state: coupled.GlacierState, rep
             "glacial_eroded_m3": report.eroded,
             "ice_free_removed_m3": sum(ice_free.removed.values()) if ice_free is not None else 0.0,
             "lake_area_m2": lakes.lake_stats(lakes.lake_depth(state.bed, state.thickness, grid, outlets),
-                                             grid).area_m2}
+                                             grid).area_m2, **sea}
 
 
 def _ice_free_erosion(prepared: PreparedGlacierJob, outlets: np.ndarray) -> cycle.IceFreeErosion | None:
     """The processes of ice-free ground after each glacier step (``glacier.cycle``) towards
-    ``outlets``; None when every one is off and there is no uplift."""
+    ``outlets`` and the job's sea; None when every one is off and there is no uplift."""
     surface = prepared.surface
     if surface.hillslope is surface.debris is surface.fluvial is None and not np.any(surface.uplift):
         return None
-    return cycle.IceFreeErosion(surface, prepared.terrain.grid, outlets)
+    return cycle.IceFreeErosion(surface, prepared.terrain.grid, outlets, prepared.job.sea_level)
 
 
 def _step_info(report: coupled.StepReport) -> str:
@@ -521,11 +581,11 @@ def run_diagnostic(prepared: PreparedGlacierJob) -> str:
     if job.output is not None:
         save(terrain.with_elevation(terrain.elevation), Outputs(job.output, prepared.write,
                                                                 job.overwrite, job.preview),
-             COMMAND, prepared.parameters, stats)
+             job.command, prepared.parameters, stats)
     _write_flow(prepared, flow, stats)
     state = "converged" if flow.converged else "NOT converged"
     written = ", ".join(str(p) for p in (job.velocity, job.sliding, job.output) if p is not None)
-    return (f"{COMMAND} --diagnostic: velocity solved with {job.iceflow} ({state}, residual "
+    return (f"{job.command} --diagnostic: velocity solved with {job.iceflow} ({state}, residual "
             f"{flow.residual:.3g}, {flow.iterations} iterations); max surface speed "
             f"{float(np.max(np.hypot(*flow.surface))):.4g} m/y; wrote {written}")
 
@@ -539,7 +599,7 @@ def _final_flow(prepared: PreparedGlacierJob, state: coupled.GlacierState) -> co
 def _write_flow(prepared: PreparedGlacierJob, flow: coupled.FlowField, stats: dict[str, Any]) -> None:
     job, terrain = prepared.job, prepared.terrain
     if job.velocity is not None:
-        entry = history_entry(COMMAND, prepared.parameters)
+        entry = history_entry(job.command, prepared.parameters)
         write_bands(np.stack(flow.surface), terrain, job.velocity, prepared.write,
                     ["surface velocity vx, east (m/y)", "surface velocity vy, along rows = south (m/y)"],
                     {"UNIT": "m/y", "UNERODE_QUANTITY": "ice surface velocity"})
@@ -555,7 +615,7 @@ def _save_layer(prepared: PreparedGlacierJob, values: np.ndarray, path: Path, un
     layer.tags["UNIT"] = unit
     if time_years is not None:
         layer.tags[TIME_TAG] = repr(time_years)
-    save(layer, Outputs(path, prepared.write, prepared.job.overwrite), COMMAND,
+    save(layer, Outputs(path, prepared.write, prepared.job.overwrite), prepared.job.command,
          prepared.parameters, stats, elevation_preview=False)
 
 
