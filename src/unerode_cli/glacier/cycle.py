@@ -64,6 +64,10 @@ HILLSLOPE_PARAMETERS = tuple(spec for spec in hillslope.PARAMETERS if spec.name 
 #: slope steeper than s_c = 37° at metres per year on real terrain (K' = k_df·(1 + k_da·A^q) ≈ 0.5
 #: m/y at A = one 46 m cell; a 32² crop of Grindelwald lost 140 m in 30 y), where rock walls retreat
 #: at 0.1–2 mm/y (Moore et al. 2009); in km², K' is 1.3e-4 m/y at 1 ha and 1.1e-3 m/y at 1 km².
+#: The cost: on 100 m cells debris flow is then 1e4–2e4 times slower and no longer lowers the
+#: cliffs that glaciers carve in synthetic terrain on glacial time scales (001 Fig. 14's "quickly
+#: reduced"; ``tests/glacier/test_fig14_coupling.py``: 39° with Table 1 as printed, 45–48° with
+#: this default, 47° glacial-only). Runs after the paper's synthetic terrains pass ``--k-da 10``.
 DEBRIS_K_DA = 10.0 * 1e-6 ** 0.8
 DEBRIS_PARAMETERS = tuple(
     replace(spec, default=DEBRIS_K_DA,
