@@ -48,8 +48,8 @@ def _cap_run(n: int):
 
 
 for _n in STEPS:
-    benchmark(f"glacier/coupled run {_n}²×{ice_cap.N_LAYERS} ice cap, {STEPS[_n]} steps of 10 y")(
-        lambda n=_n: _cap_run(n))
+    benchmark(f"glacier/coupled run {_n}²×{ice_cap.N_LAYERS} ice cap, {STEPS[_n]} steps of 10 y",
+              whole_run=True)(lambda n=_n: _cap_run(n))
 
 
 def _grindelwald() -> tuple[np.ndarray, Grid]:
@@ -59,7 +59,7 @@ def _grindelwald() -> tuple[np.ndarray, Grid]:
     return coupled.fill_outside(terrain.elevation, terrain.grid.valid), terrain.grid
 
 
-@benchmark("glacier/Grindelwald 344×333 ELA 2900 m, 1000 y at dt 20 y")
+@benchmark("glacier/Grindelwald 344×333 ELA 2900 m, 1000 y at dt 20 y", whole_run=True)
 def _grindelwald_run():
     bed, grid = _grindelwald()
     params = coupled.CoupledParams()
@@ -83,7 +83,8 @@ def cycle_start():
     return bed, Grid.full(bed.shape, grid.dx, grid.dy), coupled.CoupledParams()
 
 
-@benchmark(f"glacier/cycle 001 Fig. 6 on 256² Grindelwald, {CYCLE_STEPS} steps of {CYCLE_DT:g} y from 60 ky")
+@benchmark(f"glacier/cycle 001 Fig. 6 on 256² Grindelwald, {CYCLE_STEPS} steps of {CYCLE_DT:g} y from 60 ky",
+           whole_run=True)
 def _cycle_part():
     bed, grid, params = cycle_start()
     ela = cycle_ela()

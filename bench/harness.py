@@ -1,4 +1,6 @@
-"""Benchmark registry and timing: median of ≥ 3 timed runs after one warm-up run."""
+"""Benchmark registry and timing: median of ≥ 3 timed runs after one warm-up run; a whole run
+that lasts minutes (``benchmark(..., whole_run=True)``) is timed once, without a warm-up (numba's
+kernels come from its on-disk cache after any earlier run)."""
 
 from __future__ import annotations
 
@@ -17,6 +19,8 @@ from typing import Any
 Case = Callable[[], tuple[Callable[[], Any], float, str]]
 
 REGISTRY: dict[str, Case] = {}
+#: The names of the cases registered as whole runs (timed once, no warm-up).
+WHOLE_RUNS: set[str] = set()
 
 #: Ratios of two benchmarks' medians, reported when both were measured: label → (numerator,
 #: denominator), e.g. the per-step cost of a command over that of its kernels.
@@ -31,11 +35,14 @@ class Timed:
     seconds: float
 
 
-def benchmark(name: str) -> Callable[[Case], Case]:
-    """Register a benchmark case under ``name`` (group/what/size)."""
+def benchmark(name: str, whole_run: bool = False) -> Callable[[Case], Case]:
+    """Register a benchmark case under ``name`` (group/what/size); ``whole_run``: a run of
+    minutes, timed once without a warm-up."""
 
     def register(case: Case) -> Case:
         REGISTRY[name] = case
+        if whole_run:
+            WHOLE_RUNS.add(name)
         return case
 
     return register
@@ -60,11 +67,13 @@ class Result:
 
 
 def measure(name: str, case: Case, repeats: int = 5) -> Result:
-    """Warm up once, then time ``repeats`` (≥ 3) runs and keep the median."""
+    """Warm up once, then time ``repeats`` (≥ 3) runs and keep the median; a whole run once."""
     work, amount, unit = case()
-    work()
+    whole = name in WHOLE_RUNS
+    if not whole:
+        work()
     runs = []
-    for _ in range(max(3, repeats)):
+    for _ in range(1 if whole else max(3, repeats)):
         start = time.perf_counter()
         value = work()
         elapsed = time.perf_counter() - start

@@ -99,8 +99,8 @@ class Case:
     glacial_cliffs: int     # cells steeper than s_c + 3° in the glacial-only run
 
 
-SMALL = Case((30, 45), max_ice=220.0, b_coupled=1.27, b_fluvial=1.02, glacial_cliffs=118)
-FULL = Case((40, 60), max_ice=235.0, b_coupled=1.11, b_fluvial=0.98, glacial_cliffs=180)
+SMALL = Case((30, 45), max_ice=155.0, b_coupled=1.27, b_fluvial=1.02, glacial_cliffs=118)
+FULL = Case((40, 60), max_ice=180.0, b_coupled=1.11, b_fluvial=0.98, glacial_cliffs=180)
 
 
 def _valley(shape: tuple[int, int]) -> np.ndarray:
@@ -168,11 +168,11 @@ def _median_b_glaciated(bed: np.ndarray, glaciated: np.ndarray) -> tuple[float, 
 
 def test_the_runs_start_below_the_critical_slope_and_end_ice_free(fig14):
     """Preconditions of a fair comparison: no slope above s_c at the start (so steeper cliffs are
-    the glaciers' work), glaciers of 210–240 m at their maximum, no ice left at the end (the
+    the glaciers' work), glaciers of 150–180 m at their maximum, no ice left at the end (the
     terrain after the retreat), and no run diverged (at most ~250 m of bedrock removed)."""
     assert _slope_deg(fig14["start"]["bed"]).max() == pytest.approx(35.1, abs=0.1)
     for name in ("coupled", "glacial"):
-        assert fig14[name]["max_ice"].max() == pytest.approx(fig14["case"].max_ice, abs=30.0), name
+        assert fig14[name]["max_ice"].max() == pytest.approx(fig14["case"].max_ice, abs=20.0), name
     for name in ("coupled", "fluvial", "glacial"):
         run = fig14[name]
         assert run["ice"].max() < cycle.SHIELD_THICKNESS, name
@@ -189,7 +189,7 @@ def test_coupled_valleys_are_more_u_shaped_than_fluvial_only(fig14):
     valley; glacial-only alike), the fluvial-only run's 1.02 and 0.98 (streams sharpen the V).
     Asserted: coupled ≥ fluvial + 0.08, and coupled above the V's b = 1 by 0.05 (the
     glaciers widened the floor, not only did the streams sharpen the fluvial-only V). At 100 m
-    cells under 100–240 m of ice the U is only partly formed (001's b → 2 needs finer cells and
+    cells under 100–180 m of ice the U is only partly formed (001's b → 2 needs finer cells and
     longer glaciations).
     """
     glaciated = fig14["coupled"]["max_ice"] > cycle.SHIELD_THICKNESS

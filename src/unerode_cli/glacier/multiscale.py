@@ -13,11 +13,15 @@ One step of length dt (y), every field on the base grid:
    "every level i is a sequence of i downsampling operators followed by i upsampling steps");
 4. residuals R_i = T_i − T_{i+1} (i = 0 … n−1) and the stabilised change (m)
 
-       T' = Σ_{i<n} min(f^i·δt, dt)·R_i + min(f^n·δt, dt)·T_n                      (001 §5)
+       T' = Σ_{i<n} min(f^i·δt_i, dt)·R_i + min(f^n·δt_n, dt)·T_n                  (001 §5)
 
-   (``level_weights``, ``combine``). The coarsest level T_n is the last term, with the next
-   weight, so that the stack adds up to T (Σ R_i + T_n = T_0): wherever δt = dt the step is
-   exactly the explicit one, T' = dt·T — where the ice is slow, and outside the glacier;
+   with δt_i = min(δt, δt smoothed as level i) (``smoothed_dt``: 001 weighs every level with the
+   cell's own δt, which sinks ice divides; see there) (``level_weights``, ``combine``). The
+   coarsest level T_n
+   is the last term, with the next
+   weight, so that the stack adds up to T (Σ R_i + T_n = T_0): wherever δt = dt as far as the
+   coarsest level reaches, the step is exactly the explicit one, T' = dt·T — where the ice is
+   slow, and outside the glacier;
 5. h(t + dt) = max(0, h + T').
 
 f ∈ [1, 2]: level i is smooth over 2^i cells, where the CFL step is 2^i·δt, and f^i·δt stays
@@ -238,9 +242,27 @@ def transport_rate(thickness: np.ndarray, u_mean: np.ndarray, v_mean: np.ndarray
     return np.maximum(t, -h / delta_t)
 
 
-def level_weights(delta_t: np.ndarray, dt: float, f: float, levels: int) -> list[np.ndarray]:
-    """[min(f^i·δt, dt) for i = 0 … n] (y): the weights of R_0 … R_{n−1}, then of T_n (001 §5)."""
-    return [np.minimum(f**i * delta_t, dt) for i in range(levels + 1)]
+def level_weights(delta_t: np.ndarray, dt: float, f: float, levels: int,
+                  boundary: str = "closed") -> list[np.ndarray]:
+    """[min(f^i·δt_i, dt) for i = 0 … n] (y): the weights of R_0 … R_{n−1}, then of T_n (001 §5),
+    δt_i = min(δt, δt smoothed as level i is) (``smoothed_dt``)."""
+    return [np.minimum(f**i * step, dt) for i, step in enumerate(smoothed_dt(delta_t, levels, boundary))]
+
+
+def smoothed_dt(delta_t: np.ndarray, levels: int, boundary: str = "closed") -> list[np.ndarray]:
+    """[δt_0 … δt_n] (y): δt_i = min(δt, the level-i member of δt's Gaussian stack), δt_0 = δt.
+
+    001 §5 weighs every level by f^i·δt(x) with the cell's own δt. A level's residual R_i is
+    smooth over ~2^i cells, and a weight that varies over fewer cells than that roughens it:
+    where δt peaks along a line — an ice divide, where the speed passes through its minimum —
+    the divide's cells take every level's change at a larger weight than their neighbours. On
+    the 512² bench ice cap (100 m cells, a dome thinning at 22 m/y) the divide sank 246 m in the
+    first 10-year step against ~200 m beside it: a 1-cell trough that the ice then rushed into
+    at km/y, and the run diverged within four steps. The smoothed δt takes the peaks off at each
+    level's own scale; the minimum with δt keeps every weight at or below 001's, so no cell
+    takes a longer step than before (still ice far from fast ice keeps δt = dt)."""
+    stack = gaussian_stack(delta_t, boundary, levels)
+    return [delta_t] + [np.minimum(delta_t, smooth) for smooth in stack[1:]]
 
 
 def _residuals(stack: list[np.ndarray]) -> list[np.ndarray]:
@@ -302,4 +324,4 @@ def step(thickness: np.ndarray, u_mean: np.ndarray, v_mean: np.ndarray, mass_bal
     delta_t = local_dt(u_mean, v_mean, grid, dt, c, boundary)
     rate = transport_rate(h, u_mean, v_mean, mass_balance, grid, delta_t, boundary)
     stack = gaussian_stack(rate, boundary, n)
-    return np.maximum(0.0, h + combine(stack, level_weights(delta_t, dt, f, n)))
+    return np.maximum(0.0, h + combine(stack, level_weights(delta_t, dt, f, n, boundary)))
