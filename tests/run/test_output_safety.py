@@ -202,7 +202,7 @@ def test_an_interrupted_run_names_the_files_it_left(tmp_path: Path, ramp: Path) 
         time.sleep(0.05)
     assert (tmp_path / "out_001.tif").exists(), "no snapshot within the deadline"
     process.send_signal(signal.SIGINT)
-    _, stderr = process.communicate(timeout=60)
+    _, stderr = process.communicate(timeout=240)             # a busy machine may take a while
     assert process.returncode == 130
     assert "interrupted" in stderr and "out_001.tif" in stderr and "--overwrite" in stderr
     assert not list(tmp_path.glob(".out*.part*"))
