@@ -424,6 +424,19 @@ def step_times(duration: float, dt: float, stops: Sequence[float] = ()) -> np.nd
     return np.array(out)
 
 
+class Stopwatch:
+    """Adds the wall-clock seconds since the last lap (or its creation) to ``totals[name]``."""
+
+    def __init__(self, totals: dict[str, float]) -> None:
+        self.totals = totals
+        self.last = clock.perf_counter()
+
+    def lap(self, name: str) -> None:
+        now = clock.perf_counter()
+        self.totals[name] += now - self.last
+        self.last = now
+
+
 #: The parts of a run's wall-clock time in ``RunResult.seconds``.
 WALL_TIME_PARTS = ("ice_flow", "transport_erosion", "ice_free", "other")
 
@@ -496,9 +509,9 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
                 length = end - state.time
             state, report = step(state, grid, params, ela, length)
             if after is not None:
-                ice_free_start = clock.perf_counter()
+                lap = Stopwatch(result.seconds)
                 state = after(state, length)
-                result.seconds["ice_free"] += clock.perf_counter() - ice_free_start
+                lap.lap("ice_free")
             if state.time >= end - 1e-9 * length:
                 state = replace(state, time=end)
             result.add(state, report)

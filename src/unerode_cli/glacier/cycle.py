@@ -33,13 +33,12 @@ here in turn. Units: metres, years. Nothing here reads or writes files.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from unerode_cli.glacier.coupled import GlacierState
+from unerode_cli.glacier.coupled import GlacierState, Stopwatch
 from unerode_cli.grid import Grid
 from unerode_cli.processes import debris, fluvial, hillslope
 from unerode_cli.processes.debris import DebrisParams
@@ -204,15 +203,3 @@ class IceFreeErosion:
         clock.lap("uplift")
         return replace(state, bed=bed + uplift)
 
-
-class Stopwatch:
-    """Adds the wall-clock seconds since the last lap (or its creation) to ``totals[name]``."""
-
-    def __init__(self, totals: dict[str, float]) -> None:
-        self.totals = totals
-        self.last = time.perf_counter()
-
-    def lap(self, name: str) -> None:
-        now = time.perf_counter()
-        self.totals[name] += now - self.last
-        self.last = now
