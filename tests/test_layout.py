@@ -89,7 +89,8 @@ def test_the_package_has_the_rooms_of_the_design() -> None:
     assert {"cli", "pipeline", "jobs", "run", "io", "viz", "hydro", "processes"} <= rooms
     assert "raster" not in rooms
     pipeline = {p.name for p in (PACKAGE / "pipeline").glob("*.py")}
-    assert pipeline == {"__init__.py", "spec.py", "pipeline_run.py"}
+    assert pipeline == {"__init__.py", "spec.py", "pipeline_run.py", "ensemble_spec.py", "ensemble_run.py",
+                        "ensemble_member.py"}
 
 
 def test_import_contracts_hold() -> None:

@@ -102,6 +102,7 @@ def climate_run(
     co: CreationOptions = None,
     overwrite: Overwrite = False,
     preview: Preview = None,
+    report: Annotated[bool, typer.Option("--report", help="Also write OUTPUT_report.html when the run finishes: previews at each snapshot, chronology and timeline plots, mass budget, parameters and history (see unerode-cli report).", rich_help_panel=OUTPUT_PANEL)] = False,
     verbose: Verbose = 0,
     quiet: Quiet = 0,
     parameter_values: dict[str, str | None] | None = None,
@@ -130,14 +131,37 @@ def climate_run(
             overwrite=overwrite, preview=preview, ela_present=ela_present, ela_glacial=ela_glacial,
             parameter_values=parameter_values or {},
         )
+        report_job = _report_job(output, overwrite or resume) if report else None
         if is_glacial(process):
             _run_glacial(job, verbose - quiet)
+            _write_report(report_job, output, verbose - quiet)
             return
         prepared = plan(job, on_note=lambda text: say(text, verbose - quiet))
         with progress_bar(prepared.steps, "climate-run", verbose - quiet) as advance:
             summary = run_climate(prepared, on_step=advance,
                                   on_note=lambda text: say(text, verbose - quiet))
         say(summary, verbose - quiet, SUMMARY)
+        _write_report(report_job, output, verbose - quiet)
+
+
+def _report_job(output: Path, overwrite: bool) -> Any:
+    """The report of this run (``--report``), its output checked before the run."""
+    from unerode_cli.jobs.report import ReportJob, plan_report, run_report_path
+
+    job = ReportJob(output.parent, run_report_path(output), overwrite, run=output)
+    plan_report(job)
+    return job
+
+
+def _write_report(job: Any, output: Path, verbosity: int) -> None:
+    """Write the report of a finished run (one stopped by --max-steps leaves its checkpoint
+    and has no report yet)."""
+    from unerode_cli.cli.common import say
+    from unerode_cli.jobs.climate_run import checkpoint_path
+    from unerode_cli.jobs.report import write_report
+
+    if job is not None and not checkpoint_path(output).exists():
+        say(write_report(job), verbosity)
 
 
 def _run_glacial(job: ClimateJob, verbosity: int) -> None:

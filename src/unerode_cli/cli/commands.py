@@ -12,6 +12,7 @@ from unerode_cli.cli.climate_run import climate_run
 from unerode_cli.cli.compare_terraces import compare_terraces
 from unerode_cli.cli.convert import convert
 from unerode_cli.cli.diff import diff
+from unerode_cli.cli.ensemble import ensemble
 from unerode_cli.cli.erode import erode, unerode
 from unerode_cli.cli.flow import flow
 from unerode_cli.cli.glaciate import glaciate
@@ -20,6 +21,7 @@ from unerode_cli.cli.info import info
 from unerode_cli.cli.landforms import landforms
 from unerode_cli.cli.particle_erode import particle_erode
 from unerode_cli.cli.preview import preview
+from unerode_cli.cli.report import report
 from unerode_cli.cli.synth import synth
 from unerode_cli.cli.values import Command
 
@@ -28,6 +30,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "erode": erode, "unerode": unerode, "diff": diff, "hypsometry": hypsometry,
     "glaciate": glaciate, "climate-run": climate_run, "compare-terraces": compare_terraces,
     "particle-erode": particle_erode, "landforms": landforms,
+    "ensemble": ensemble, "report": report,
 }
 
 

@@ -2,7 +2,8 @@
 
 **Isolation.** Each step runs as ``sys.executable -m unerode_cli SUBCOMMAND ...`` in the
 workdir, with the pipeline's stdout and stderr (its messages stream as it runs) and its real
-exit code.
+exit code. A caller may pass another ``executor`` (``ARGV, WORKDIR → exit code``), e.g. one
+that runs the command in this process, as the members of an ensemble do.
 
 **State file.** ``.<spec-stem>.state.json`` in the workdir, rewritten atomically after each
 change. It holds, per finished step, a key (sha256 of the subcommand and its resolved command
@@ -47,6 +48,9 @@ from unerode_cli.io.paths import check_output, file_sha256
 from unerode_cli.pipeline.spec import ResolvedPipeline, ResolvedStep
 
 STATE_VERSION = 1
+
+#: Runs ``unerode-cli ARGV`` in the folder WORKDIR and returns its exit code.
+Executor = Callable[[list[str], Path], int]
 
 
 class StepFailed(Exception):
@@ -187,8 +191,11 @@ def dry_run(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0) -> lis
 
 
 def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
-                 note: Callable[[str], None] = lambda text: None) -> Report:
-    """Run (or skip) every step in order; raises :class:`StepFailed` at the first failure."""
+                 note: Callable[[str], None] = lambda text: None,
+                 executor: Executor | None = None) -> Report:
+    """Run (or skip) every step in order, each through ``executor`` (default: a child
+    process); raises :class:`StepFailed` at the first failure."""
+    execute = executor or _execute
     state = State.load(pipeline.state_path)
     check_outputs(pipeline, state)
     if not pipeline.workdir.is_dir():
@@ -210,7 +217,8 @@ def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
         state.owned.update(_rel(p, pipeline.workdir) for p in step.outputs)
         state.save()
         started = time.monotonic()
-        code = _execute(argv, pipeline.workdir)
+        code = execute(argv, pipeline.workdir)
+        check_output(pipeline.state_path, overwrite=True)  # a step run in this process cleared its own
         if code != 0:
             raise StepFailed(step.name, step.command, code)
         missing = [_rel(p, pipeline.workdir) for p in step.outputs if not p.exists()]

@@ -1,0 +1,218 @@
+"""Run an ensemble: plan its members (checking everything first), run each member's pipeline as
+a dask task (:mod:`unerode_cli.ensemble.engine`, :mod:`unerode_cli.pipeline.ensemble_member`),
+then summarise (:mod:`unerode_cli.jobs.ensemble`). A member whose steps fail (or whose spec
+fails to resolve, e.g. a swept value out of range) is recorded with its error in failures.csv
+and does not stop the others.
+
+**Resume.** ``ensemble.json`` holds the spec's content, the seed, the ``--var`` values and every
+member's parameters. With ``--resume`` a member with its done marker and outputs is never rerun;
+every other member starts again from an empty folder (its interrupted run is not trusted). The
+members must be those of the recorded ensemble. Without ``--resume`` an existing ensemble is
+refused unless ``--overwrite``, which reruns every member.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from unerode_cli import __version__
+from unerode_cli.ensemble.engine import Engine, SchedulerUnreachable, connect
+from unerode_cli.errors import InputError
+from unerode_cli.io.ensemble_files import (
+    DONE_FILE,
+    ENSEMBLE_FILE,
+    FAILURES_FILE,
+    MEMBER_FILE,
+    MEMBERS_FOLDER,
+    fresh_folder,
+    member_folder,
+    read_record,
+    write_record,
+    write_rows,
+)
+from unerode_cli.io.json_files import jsonable
+from unerode_cli.io.paths import file_sha256
+from unerode_cli.jobs.ensemble import MemberResult, SummaryJob, summarise
+from unerode_cli.pipeline.ensemble_member import Member, Outcome, is_done, member_record, run_member
+from unerode_cli.pipeline.ensemble_spec import (
+    load_ensemble_spec,
+    member_pipeline,
+    member_spec,
+    parse_sweep,
+    sweep_targets,
+)
+from unerode_cli.pipeline.pipeline_run import Executor
+from unerode_cli.pipeline.spec import CommandSchema, resolve
+
+#: Raster outputs of members that the summary reads (their statistics per snapshot age).
+RASTER_SUFFIXES = (".tif", ".tiff", ".exr")
+#: The subcommand whose report folder holds a member's scores.
+SCORING_COMMAND = "compare-terraces"
+
+
+@dataclass(frozen=True)
+class EnsembleJob:
+    """What the user asked for (``members``: the Latin hypercube samples, for sampled sweeps)."""
+
+    spec: Path
+    out_dir: Path
+    members: int | None = None
+    seed: int = 0
+    variables: dict[str, str] = field(default_factory=dict)
+    resume: bool = False
+    overwrite: bool = False
+    engine: Engine = Engine()
+
+
+@dataclass(frozen=True)
+class EnsemblePlan:
+    job: EnsembleJob
+    members: list[Member]
+    record: dict[str, Any]
+    log_keys: frozenset[str]
+
+    @property
+    def out_dir(self) -> Path:
+        return self.job.out_dir
+
+
+@dataclass(frozen=True)
+class EnsembleResult:
+    """How many members failed, and the one-line account of the run."""
+
+    failed: int
+    summary: str
+
+
+def plan_ensemble(job: EnsembleJob, schemas: Mapping[str, CommandSchema]) -> EnsemblePlan:
+    """Check the spec, the sweep and the output folder, and resolve every member; nothing is
+    written. InputError for what stops the whole ensemble; a member whose own values do not
+    resolve is planned as failed."""
+    spec = load_ensemble_spec(job.spec)
+    sweep = parse_sweep(spec)
+    targets = sweep_targets(spec, schemas)
+    try:
+        values = sweep.members(job.members, job.seed)
+    except ValueError as exc:
+        raise InputError(f"{str(exc).rstrip('.')}.") from None
+    resolve(member_spec(spec, targets, {}, schemas), job.spec, schemas, job.variables)  # the spec as given
+    record = {"unerode_cli": __version__, "spec": str(job.spec.resolve()),
+              "spec_sha256": file_sha256(job.spec), "seed": job.seed, "samples": job.members,
+              "vars": job.variables, "keys": list(spec.sweep), "members": values}
+    _check_out_dir(job, record)
+    members = []
+    for index, parameters in enumerate(values):
+        folder = member_folder(job.out_dir.resolve(), index)
+        try:
+            pipeline = member_pipeline(member_spec(spec, targets, parameters, schemas), job.spec, schemas,
+                                       job.variables, folder)
+            members.append(Member(index, folder, parameters, pipeline))
+        except InputError as exc:
+            members.append(Member(index, folder, parameters, None, str(exc)))
+    logs = frozenset(p.key for p in sweep.sampled if p.kind == "log-uniform")
+    return EnsemblePlan(job, members, record, logs)
+
+
+def _check_out_dir(job: EnsembleJob, record: dict[str, Any]) -> None:
+    out = job.out_dir
+    if out.exists() and not out.is_dir():
+        raise InputError(f"the ensemble folder {out} is a file.")
+    if not out.exists():
+        if not out.parent.is_dir():
+            raise InputError(f"the folder above the ensemble folder {out} does not exist.")
+        return
+    earlier = read_record(out / ENSEMBLE_FILE)
+    if earlier is None:
+        if any(out.iterdir()):
+            raise InputError(f"{out} is not empty and holds no ensemble; choose a new or empty folder.")
+        return
+    if job.resume:
+        same = all(earlier.get(k) == v for k, v in jsonable(record).items() if k != "unerode_cli")
+        if not same:
+            raise InputError(f"{out} holds an ensemble of another spec or sweep (the spec's content, "
+                             "--seed, --members or --var differ); resume it with the same ones, or "
+                             "pass --overwrite to run every member again.")
+    elif not job.overwrite:
+        raise InputError(f"{out} already holds an ensemble; pass --resume to continue it or --overwrite "
+                         "to run every member again.")
+
+
+def run_ensemble(plan: EnsemblePlan, executor: Executor, verbosity: int = 0,
+                 on_note: Callable[[str], None] = lambda text: None) -> EnsembleResult:
+    """Run every member not finished yet, write failures.csv, then the summary. Nothing is
+    written before the engine answers."""
+    job = plan.job
+    started = time.perf_counter()
+    done = {m.index for m in plan.members if job.resume and is_done(m)}
+    pending = [m for m in plan.members if m.index not in done and m.pipeline is not None]
+    outcomes: dict[int, Outcome] = {}
+
+    def heard(i: int, outcome: Outcome | None, error: BaseException | None) -> None:
+        member = pending[i]
+        if outcome is None:
+            outcome = Outcome(member.index, False, None, None, f"{type(error).__name__}: {error}")
+        outcomes[member.index] = outcome
+        state = f"finished in {outcome.wall_s:.1f} s" if outcome.finished else f"failed: {outcome.error}"
+        on_note(f"member {member.folder.name} {state} ({len(outcomes)}/{len(plan.members)})")
+
+    with contextlib.ExitStack() as stack:
+        cluster = None
+        if pending:
+            try:
+                cluster = stack.enter_context(connect(job.engine, len(pending), on_note))
+            except SchedulerUnreachable as exc:
+                raise InputError(f"the scheduler {job.engine.scheduler} {exc}.") from None
+        (job.out_dir / MEMBERS_FOLDER).mkdir(parents=True, exist_ok=True)
+        write_record(job.out_dir / ENSEMBLE_FILE, plan.record)
+        for member in plan.members:
+            if member.index in done:
+                record = read_record(member.folder / DONE_FILE) or {}
+                outcomes[member.index] = Outcome(member.index, True, record.get("wall_s"))
+            elif member.pipeline is None:
+                outcomes[member.index] = _unresolved(member)
+        unresolved = len(outcomes) - len(done)
+        on_note(f"ensemble of {len(plan.members)} member(s) in {job.out_dir}: {len(pending)} to run"
+                + (f", {len(done)} finished earlier" if done else "")
+                + (f", {unresolved} that do not resolve" if unresolved else ""))
+        if cluster is not None:
+            cluster.run(pending, functools.partial(run_member, executor=executor, verbosity=verbosity), heard)
+    ordered = [outcomes[m.index] for m in plan.members]
+    failed = [o for o in ordered if not o.finished]
+    write_rows(job.out_dir / FAILURES_FILE, ["member", "folder", "step", "error"],
+               [{"member": o.index, "folder": plan.members[o.index].folder.name, "step": o.step,
+                 "error": o.error} for o in failed])
+    summary = summarise(_summary_job(plan, ordered), on_note)
+    return EnsembleResult(len(failed), f"{summary}; {time.perf_counter() - started:.1f} s")
+
+
+def _unresolved(member: Member) -> Outcome:
+    """A member whose spec does not resolve: its folder says so, and it fails."""
+    fresh_folder(member.folder)
+    write_record(member.folder / MEMBER_FILE, member_record(member))
+    return Outcome(member.index, False, None, None, member.error)
+
+
+def _summary_job(plan: EnsemblePlan, outcomes: list[Outcome]) -> SummaryJob:
+    """What the summary reads: the raster outputs and score folders of the members' pipelines
+    (relative to a member's folder), and each member's outcome."""
+    template = next((m for m in plan.members if m.pipeline is not None), None)
+    rasters: list[Path] = []
+    reports: list[Path] = []
+    if template is not None and template.pipeline is not None:
+        for step in template.pipeline.steps:
+            for path in step.outputs:
+                relative = path.relative_to(template.folder)
+                if path.suffix.lower() in RASTER_SUFFIXES:
+                    rasters.append(relative)
+                elif step.command == SCORING_COMMAND and not path.suffix:
+                    reports.append(relative)
+    results = tuple(MemberResult(m.index, m.folder, m.parameters, o.finished, o.wall_s, o.step, o.error)
+                    for m, o in zip(plan.members, outcomes, strict=True))
+    return SummaryJob(plan.out_dir, tuple(plan.record["keys"]), plan.log_keys, tuple(rasters),
+                      tuple(reports), results)
