@@ -110,6 +110,31 @@ def test_level_weights_take_the_peak_of_an_ice_divide_off_and_never_exceed_001s(
     np.testing.assert_array_equal(ours[0], paper[0])
 
 
+def test_a_still_empty_cell_beside_fast_thinning_ice_gains_only_its_mass_balance():
+    """A cell with no ice and no speed on its faces keeps δt = dt, while the levels smoothed
+    over it take the small δt of the fast ice next door. Its levels must not enter with
+    negative shares (w_i < w_{i−1}): then the smoothed thinning of its neighbours (T_1 < 0)
+    turned into a gain of hundreds of metres (Grindelwald at 92 m: 634 m in one 50-year step).
+    With the weights non-decreasing level by level, the still cell gains dt·M, the explicit
+    step of its own mass balance."""
+    grid = Grid.full((32, 32), 92.0)
+    h = np.zeros((32, 32))
+    u = np.zeros((32, 32))
+    h[6:19, 6:27] = 160.0
+    u[6:19, 6:27] = 1600.0              # a fast, thick tongue, thinning (melt)
+    h[11:14, 15:18] = u[11:14, 15:18] = 0.0  # a still, empty 3 × 3 rock knob in it
+    m = np.where(h > 0, -40.0, 1.9)     # snow on the knob, 1.9 m/y
+    dt = 50.0
+    delta_t = multiscale.local_dt(u, np.zeros_like(u), grid, dt, boundary="open")
+    still = (12, 16)                    # the knob's centre: its faces do not move
+    assert delta_t[still] == dt
+    weights = multiscale.level_weights(delta_t, dt, multiscale.F, multiscale.level_count(grid.shape), "open")
+    for finer, coarser in zip(weights[:-1], weights[1:], strict=True):
+        assert np.all(coarser >= finer)
+    new = multiscale.step(h, u, np.zeros_like(u), m, grid, dt, "open")
+    assert new[still] == pytest.approx(dt * 1.9, rel=1e-9)
+
+
 @pytest.mark.slow
 def test_the_512_bench_ice_cap_melts_back_without_a_trough_at_its_divide():
     """The bench ice cap at 512² (100 m cells, ``bench/bench_glacier.py``), a dome thinning at
