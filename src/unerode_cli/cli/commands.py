@@ -22,6 +22,7 @@ from unerode_cli.cli.landforms import landforms
 from unerode_cli.cli.particle_erode import particle_erode
 from unerode_cli.cli.preview import preview
 from unerode_cli.cli.report import report
+from unerode_cli.cli.sandstone import sandstone
 from unerode_cli.cli.synth import synth
 from unerode_cli.cli.values import Command
 
@@ -29,7 +30,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "info": info, "convert": convert, "preview": preview, "synth": synth, "flow": flow,
     "erode": erode, "unerode": unerode, "diff": diff, "hypsometry": hypsometry,
     "glaciate": glaciate, "climate-run": climate_run, "compare-terraces": compare_terraces,
-    "particle-erode": particle_erode, "landforms": landforms,
+    "particle-erode": particle_erode, "landforms": landforms, "sandstone": sandstone,
     "ensemble": ensemble, "report": report,
 }
 

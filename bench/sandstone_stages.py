@@ -1,0 +1,113 @@
+"""Cases of the sandstone's surface and transport stages at about a million particles, for
+``bench_sandstone.py`` to register (``harness.benchmark``): surface particles, normals (all,
+and near a frame's changes), wind abrasion, deflation and deposition.
+
+The rock: a block of 128 × 96 × 80 lattice spacings (1 m) pierced by a tunnel of radius 24 m
+along y (an arch), on a jittered lattice (a quarter spacing, as the sampler's), about 0.9 M
+particles; the surface grid has one lattice cell per cell (160 × 128 × 96), the MPM grid two.
+A frame's changes are 2000 surface particles eroded from the tunnel's roof.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numba
+import numpy as np
+
+from unerode_cli.sandstone import deflation, deposition, surface, wind
+from unerode_cli.sandstone.grid3d import Grid3D
+
+BLOCK = (128, 96, 80)
+TUNNEL_RADIUS = 24.0
+SURFACE_GRID = Grid3D((-16.0, -16.0, 0.0), 1.0, (160, 128, 96))
+MPM_GRID = Grid3D((-16.0, -16.0, 0.0), 2.0, (80, 64, 48))
+CHANGES = 2000
+SEED = 1
+
+
+@cache
+def _rock() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, surface flags and normals of the bench rock (computed once)."""
+    axes = [np.arange(n) + 0.5 for n in BLOCK]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    points += (np.random.default_rng(SEED).random(points.shape) - 0.5) * 0.5
+    tunnel = np.hypot(points[:, 0] - BLOCK[0] / 2, points[:, 2]) < TUNNEL_RADIUS
+    positions = np.ascontiguousarray(points[~tunnel])
+    on_surface = surface.surface_particles(positions, SURFACE_GRID)
+    return positions, on_surface, surface.normals(positions, on_surface, SURFACE_GRID)
+
+
+def _eroded() -> np.ndarray:
+    """Indices of the frame's eroded particles: the surface particles nearest the roof's crown."""
+    positions, on_surface, _ = _rock()
+    index = np.flatnonzero(on_surface)
+    crown = np.array([BLOCK[0] / 2, BLOCK[1] / 2, TUNNEL_RADIUS])
+    return index[np.argsort(np.linalg.norm(positions[index] - crown, axis=1))[:CHANGES]]
+
+
+def _threads(threads: int) -> None:
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
+def surface_case(threads: int = 2):
+    positions, _, _ = _rock()
+
+    def work():
+        _threads(threads)
+        return surface.surface_particles(positions, SURFACE_GRID)
+
+    return work, len(positions), "particles"
+
+
+def normals_case(threads: int = 2, incremental: bool = False):
+    positions, on_surface, previous = _rock()
+    recompute = surface.near_changes(positions, positions[_eroded()], SURFACE_GRID) if incremental else None
+
+    def work():
+        _threads(threads)
+        if incremental:
+            return surface.normals(positions, on_surface, SURFACE_GRID, previous=previous,
+                                   recompute=recompute)
+        return surface.normals(positions, on_surface, SURFACE_GRID)
+
+    return work, int(on_surface.sum()), "surface particles"
+
+
+def wind_case(threads: int = 2):
+    positions, on_surface, normals = _rock()
+    k_a = np.full(len(positions), 1e-5)
+    params = wind.WindParams(azimuth=270.0, speed=10.0)
+
+    def work():
+        _threads(threads)
+        return wind.abrasion_rate(positions, normals, on_surface, SURFACE_GRID, k_a, params, SEED, 0)
+
+    return work, int(on_surface.sum()), "surface particles"
+
+
+def deflation_case(threads: int = 2):
+    positions, on_surface, _ = _rock()
+    k_d = np.full(len(positions), 1e-7)
+    compression = np.random.default_rng(SEED).random(len(positions)) * 4e6
+    params = deflation.DeflationParams()
+
+    def work():
+        _threads(threads)
+        return deflation.deflation_rate(on_surface, k_d, compression, params)
+
+    return work, len(positions), "particles"
+
+
+def deposition_case(threads: int = 2):
+    positions, _, _ = _rock()
+    eroded = _eroded()
+    kept = np.delete(positions, eroded, axis=0)
+    grid = deposition.offset_grid(MPM_GRID, SEED, 0)
+    params = deposition.DepositionParams()
+
+    def work():
+        _threads(threads)
+        return deposition.deposit(positions[eroded], grid.occupancy(kept), grid, params, SEED, 0)
+
+    return work, len(eroded), "eroded particles"

@@ -1,0 +1,83 @@
+"""MLS-MPM stress (002 §4): static stresses of rocks under their own weight against statics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from unerode_cli.sandstone.layers import GRAVITY, Rock
+from unerode_cli.sandstone.mpm import MpmParams, StressSolver, lithostatic_guess
+from unerode_cli.sandstone.mpm_kernels import cauchy_stress
+from unerode_cli.sandstone.particles import Particles
+from unerode_cli.sandstone.sampling import Lattice, sample
+from unerode_cli.sandstone.scene import parse_scene
+
+SPACING = 0.5
+ROCK = Rock()
+
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+def _settled(shape: dict, size: tuple[float, float, float], lithostatic: bool = False,
+             substeps: int = 6000) -> tuple[Particles, np.ndarray, StressSolver]:
+    lattice = Lattice((0.0, 0.0, 0.0), size, SPACING)
+    solid = parse_scene({"domain": {"size": list(size)}, "shape": shape}).shape
+    particles = Particles.new(sample(solid, lattice, seed=3), np.zeros(0))
+    solver = StressSolver(lattice.mpm_grid(), ROCK, SPACING**3, MpmParams())
+    if lithostatic:
+        lithostatic_guess(particles, lattice.surface_grid(), ROCK, SPACING)
+    relaxation = solver.relax(particles, substeps)
+    assert relaxation.converged, relaxation
+    return particles, solver.cauchy_stress(particles), solver
+
+
+def test_corotated_stress_is_hookes_law_for_small_strains() -> None:
+    """σ = λ tr(ε) I + 2μ ε for F = I + ε (the J that 002 Eq. 5 drops is second order), and a
+    rotation of an unstrained body carries no stress."""
+    eps = np.array([[1e-5, 2e-6, 0.0], [2e-6, -3e-6, 1e-6], [0.0, 1e-6, 4e-6]])
+    sigma = cauchy_stress((np.eye(3) + eps)[None], ROCK.shear_modulus, ROCK.lame_lambda)[0]
+    hooke = ROCK.lame_lambda * np.trace(eps) * np.eye(3) + 2.0 * ROCK.shear_modulus * eps
+    np.testing.assert_allclose(sigma, hooke, rtol=1e-4, atol=1e-4 * np.abs(hooke).max())
+    c, s = np.cos(0.3), np.sin(0.3)
+    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    assert np.abs(cauchy_stress(rotation[None], ROCK.shear_modulus, ROCK.lame_lambda)).max() < 1e-3
+
+
+def test_free_standing_column_carries_its_weight() -> None:
+    """σ_zz = −ρg(H − z), σ_xx = σ_yy = 0 in a free column, within 3 % (relative L2 over the
+    interior, away from base and top), from rest (no lithostatic guess)."""
+    height = 16.0
+    particles, sigma, _ = _settled({"box": {"min": [4, 4, 0], "max": [8, 8, height]}}, (12.0, 12.0, 20.0))
+    z = particles.positions[:, 2]
+    interior = (z > 4.0) & (z < height - 4.0)
+    exact = -ROCK.density * GRAVITY * (height - z[interior])
+    norm = np.linalg.norm(exact)
+    assert np.linalg.norm(sigma[interior, 2, 2] - exact) / norm < 0.03
+    assert np.linalg.norm(sigma[interior, 0, 0]) / norm < 0.03
+    assert np.linalg.norm(sigma[interior, 1, 1]) / norm < 0.03
+
+
+def test_lithostatic_guess_reaches_the_same_static_state() -> None:
+    shape, size = {"box": {"min": [4, 4, 0], "max": [8, 8, 16]}}, (12.0, 12.0, 20.0)
+    guessed, from_guess, _ = _settled(shape, size, lithostatic=True)
+    rested, from_rest, _ = _settled(shape, size)
+    difference = np.linalg.norm(from_guess[:, 2, 2] - from_rest[:, 2, 2]) / np.linalg.norm(from_rest[:, 2, 2])
+    assert difference < 0.02
+
+
+def test_cap_loaded_pillar_carries_the_cap() -> None:
+    """σ_zz = −(W + ρgA(H − z))/A at sections at least a pillar width below the cap, within 5 %.
+    W and the pillar's weight above z are counted from the particles (m = ρ s³ each)."""
+    width, top = 4.0, 12.0
+    shape = {"union": [{"box": {"min": [8, 8, 0], "max": [12, 12, top]}},
+                       {"box": {"min": [4, 4, top], "max": [16, 16, top + 4]}}]}
+    particles, sigma, _ = _settled(shape, (20.0, 20.0, 20.0))
+    z = particles.positions[:, 2]
+    weight = ROCK.density * SPACING**3 * GRAVITY
+    area = width * width
+    for section in np.arange(2.5, top - width + 0.01, 1.0):
+        layer = np.abs(z - section) < 0.5
+        load = weight * np.count_nonzero(z > section)
+        expected = -load / area
+        assert sigma[layer, 2, 2].mean() == pytest.approx(expected, rel=0.05), section
