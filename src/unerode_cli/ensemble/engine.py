@@ -114,7 +114,8 @@ def connect(engine: Engine, tasks: int,
             try:   # a scheduler without workers would hold the tasks for ever
                 client.wait_for_workers(1, timeout=engine.timeout_s)
             except TimeoutError:
-                raise SchedulerUnreachable(f"has no worker: none joined within {engine.timeout_s:g} s") from None
+                raise SchedulerUnreachable(
+                    f"has no worker: none joined within {engine.timeout_s:g} s") from None
             workers = client.scheduler_info().get("workers", {})
             on_note(f"scheduler {engine.scheduler}: {len(workers)} worker(s); "
                     f"dashboard {client.dashboard_link}")
@@ -126,7 +127,8 @@ def connect(engine: Engine, tasks: int,
                                dashboard_address=":0", silence_logs=logging.ERROR,
                                env={name: str(threads) for name in THREAD_VARIABLES})
     with cluster, Client(cluster) as client:
-        on_note(f"local cluster: {workers} worker(s) × {threads} numba thread(s); {_dashboard(client)}")
+        on_note(f"local cluster: {workers} worker(s) × {threads} numba thread(s); "
+                f"dashboard {client.dashboard_link}")
         yield Cluster(client, threads, engine.retries)
 
 
@@ -137,15 +139,6 @@ def run_tasks(tasks: Sequence[Task], run: Callable[[Task], Any], engine: Engine,
     if tasks:
         with connect(engine, len(tasks), on_note) as cluster:
             cluster.run(tasks, run, on_result)
-
-
-def _dashboard(client: Any) -> str:
-    """Where the dashboard is, or why there is none."""
-    import importlib.util
-
-    if importlib.util.find_spec("bokeh") is None:
-        return "no dashboard (it needs the bokeh package)"
-    return f"dashboard {client.dashboard_link}"
 
 
 def _one_at_a_time(run: Callable[[Task], Any], threads: int, task: Task) -> Any:
