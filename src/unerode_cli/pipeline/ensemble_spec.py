@@ -35,17 +35,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field, ValidationError
+from pydantic import Field
 
 from unerode_cli.ensemble.sweep import Sweep, Value, parse_parameter
 from unerode_cli.errors import InputError
-from unerode_cli.io.yaml_files import read_yaml_mapping
 from unerode_cli.pipeline.spec import (
     CommandSchema,
     PipelineSpec,
     ResolvedPipeline,
     ResolvedStep,
-    _describe,
+    load_model,
     resolve,
 )
 
@@ -67,14 +66,7 @@ class Target:
 
 def load_ensemble_spec(path: Path) -> EnsembleSpec:
     """Read and check the structure of an ensemble spec (one-sentence InputError when wrong)."""
-    if not path.is_file():
-        raise InputError(f"ensemble spec {path} does not exist.")
-    raw = read_yaml_mapping(path, "ensemble spec", "a YAML mapping with version, steps and sweep",
-                            allow_empty=False)
-    try:
-        return EnsembleSpec.model_validate(raw)
-    except ValidationError as exc:
-        raise InputError(_describe(exc, raw)) from None
+    return load_model(path, EnsembleSpec, "ensemble spec", "a YAML mapping with version, steps and sweep")
 
 
 def parse_sweep(spec: EnsembleSpec) -> Sweep:

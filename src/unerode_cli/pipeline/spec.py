@@ -56,7 +56,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -137,12 +137,20 @@ class PipelineSpec(BaseModel):
 
 def load_spec(path: Path) -> PipelineSpec:
     """Read and check the structure of a YAML spec (one-sentence InputError when wrong)."""
+    return load_model(path, PipelineSpec, "pipeline spec", "a YAML mapping with version and steps")
+
+
+SpecModel = TypeVar("SpecModel", bound=BaseModel)
+
+
+def load_model(path: Path, model: type[SpecModel], what: str, expected: str) -> SpecModel:
+    """Read the YAML file ``path`` as ``model`` (``what`` names it in messages, ``expected``
+    says what it should hold); one-sentence InputError when it is missing or wrong."""
     if not path.is_file():
-        raise InputError(f"pipeline spec {path} does not exist.")
-    raw = read_yaml_mapping(path, "pipeline spec", "a YAML mapping with version and steps",
-                            allow_empty=False)
+        raise InputError(f"{what} {path} does not exist.")
+    raw = read_yaml_mapping(path, what, expected, allow_empty=False)
     try:
-        return PipelineSpec.model_validate(raw)
+        return model.model_validate(raw)
     except ValidationError as exc:
         raise InputError(_describe(exc, raw)) from None
 
