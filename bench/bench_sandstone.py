@@ -1,7 +1,9 @@
 """Sandstone (002) benchmarks: one MLS-MPM substep and one whole frame at 002 §8.3's scale (1 M
 particles, 128³ grid) on 2 threads, a substep on 1 thread, the README example (the ``arch``
-preset at 50 000 particles, 100 frames, through the command line, start-up included), and the
-surface and transport stages of ``sandstone_stages`` (about 0.9 M particles, 2 threads).
+preset at 50 000 particles, 100 frames, through the command line, start-up included), the
+surface and transport stages of ``sandstone_stages`` (about 0.9 M particles, 2 threads), and
+002 §8.3's "3D flow routing (fluvial erosion + deposition)" on the block: water receivers,
+depression routing, discharge, the fluvial rate and the deposition of 2000 eroded particles.
 
 The block: 128 × 128 × 61 particles of spacing 0.5 m (1 M, 8 per MPM cell of 1 m) standing in
 a 128 m cubic domain, the MPM grid 128³. The frame runs 10 substeps (no early stop), the
@@ -21,7 +23,14 @@ import numba
 import numpy as np
 
 from harness import Timed, benchmark
-from sandstone_stages import deflation_case, deposition_case, normals_case, surface_case, wind_case
+from sandstone_stages import (
+    deflation_case,
+    deposition_case,
+    fluvial_case,
+    normals_case,
+    surface_case,
+    wind_case,
+)
 from unerode_cli.sandstone.layers import Layer, LayerStack, Rock
 from unerode_cli.sandstone.mpm import MpmParams, StressSolver
 from unerode_cli.sandstone.particles import Particles
@@ -94,3 +103,5 @@ benchmark("sandstone/stage normals near changes 0.9M particles 2 threads")(
 benchmark("sandstone/stage wind abrasion 0.9M particles 2 threads")(wind_case)
 benchmark("sandstone/stage deflation 0.9M particles 2 threads")(deflation_case)
 benchmark("sandstone/stage deposition 2000 eroded 2 threads")(deposition_case)
+benchmark("sandstone/stage water routing discharge fluvial deposition 1M particles 128³ 2 threads")(
+    lambda: fluvial_case(*_block()))

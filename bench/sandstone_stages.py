@@ -1,6 +1,7 @@
 """Cases of the sandstone's surface and transport stages at about a million particles, for
 ``bench_sandstone.py`` to register (``harness.benchmark``): surface particles, normals (all,
-and near a frame's changes), wind abrasion, deflation and deposition.
+and near a frame's changes), wind abrasion, deflation and deposition; and the water's stages
+with deposition (``fluvial_case``) on a rock it is given.
 
 The rock: a block of 128 × 96 × 80 lattice spacings (1 m) pierced by a tunnel of radius 24 m
 along y (an arch), on a jittered lattice (a quarter spacing, as the sampler's), about 0.9 M
@@ -15,7 +16,16 @@ from functools import cache
 import numba
 import numpy as np
 
-from unerode_cli.sandstone import deflation, deposition, surface, wind
+from unerode_cli.sandstone import (
+    basins,
+    deflation,
+    deposition,
+    discharge,
+    fluvial,
+    surface,
+    water_receivers,
+    wind,
+)
 from unerode_cli.sandstone.grid3d import Grid3D
 
 BLOCK = (128, 96, 80)
@@ -111,3 +121,33 @@ def deposition_case(threads: int = 2):
         return deposition.deposit(positions[eroded], grid.occupancy(kept), grid, params, SEED, 0)
 
     return work, len(eroded), "eroded particles"
+
+
+def fluvial_case(particles, lattice, threads: int = 2):
+    """Water receivers, depression routing, discharge (rain and a source on the rock's top),
+    the fluvial rate (k_t = 400 1/Pa, τ_c = 1 Pa) and the deposition of the frame's eroded
+    particles (the 2000 surface particles nearest the top's centre) on ``lattice``'s MPM grid,
+    for the ``particles`` of a rock (normals computed once, outside the timing)."""
+    positions = particles.positions
+    on_surface = surface.surface_particles(positions, lattice.surface_grid())
+    normals = surface.normals(positions, on_surface, lattice.surface_grid())
+    grid = lattice.mpm_grid()
+    top = positions[:, 2].max()
+    centre = np.array([*(np.asarray(lattice.low[:2]) + 0.5 * np.asarray(lattice.size[:2])), top])
+    params = fluvial.FluvialParams(sources=((*centre[:2], top + 1.0, 1e6),))
+    layer = np.zeros(len(positions), dtype=np.int32)
+    k_t, tau_c = np.array([400.0]), np.array([1.0])
+    index = np.flatnonzero(on_surface)
+    eroded = index[np.argsort(np.linalg.norm(positions[index] - centre, axis=1))[:CHANGES]]
+    kept = np.delete(positions, eroded, axis=0)
+    depositing = deposition.DepositionParams()
+
+    def work():
+        _threads(threads)
+        receivers = water_receivers.water_receivers(positions, grid, SEED, 0)
+        water = discharge.discharge(basins.route_depressions(receivers), params.precipitation, params.sources)
+        rate = fluvial.fluvial_rate(positions, normals, on_surface, layer, k_t, tau_c, water.q, grid, params)
+        moved = deposition.offset_grid(grid, SEED, 0)
+        return rate, deposition.deposit(positions[eroded], moved.occupancy(kept), moved, depositing, SEED, 0)
+
+    return work, len(positions), "particles"

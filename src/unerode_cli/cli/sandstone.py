@@ -26,7 +26,7 @@ def sandstone(
     out_dir: Annotated[Path, typer.Argument(help="Output folder (created): particles.ply, top.tif|exr, preview.png, frames.csv, run.json.")],
     extrude: Annotated[float | None, typer.Option("--extrude", parser=METRES, help="With a DEM: the rock fills each column from this altitude BASE_M (m) up to the DEM's surface.", rich_help_panel=RUN)] = None,
     particles: Annotated[int | None, typer.Option("--particles", min=1, help="Approximate particle count (the sampling spacing and the grids follow; default: the scene's, presets: 002 Table 1's).", rich_help_panel=RUN)] = None,
-    frames: Annotated[int, typer.Option("--frames", help="Frames to run (each: stress, normals, wind, erosion, deposition).", rich_help_panel=RUN)] = 100,
+    frames: Annotated[int, typer.Option("--frames", help="Frames to run (each: stress, normals, wind, fluvial, erosion, deposition).", rich_help_panel=RUN)] = 100,
     dt: Annotated[float, typer.Option("--dt", parser=POSITIVE_YEARS, help="Time step of a frame (years; 002 Table 2: 1000).", rich_help_panel=RUN)] = 1000.0,
     seed: Seed = 0,
     threads: Annotated[int | None, typer.Option("--threads", min=1, help="Numba threads (default: all cores); the result does not depend on it.", rich_help_panel=RUN)] = None,
@@ -37,6 +37,9 @@ def sandstone(
     no_deflation: Annotated[bool, typer.Option("--no-deflation", help="Ablation: no wind deflation (002 Eq. 12).", rich_help_panel=PROCESSES)] = False,
     no_deposition: Annotated[bool, typer.Option("--no-deposition", help="Ablation: eroded particles leave the domain (002 §7 off).", rich_help_panel=PROCESSES)] = False,
     no_stress: Annotated[bool, typer.Option("--no-stress", help="Ablation: no fabric interlocking (I = ∞, 002 Fig. 16).", rich_help_panel=PROCESSES)] = False,
+    no_fluvial: Annotated[bool, typer.Option("--no-fluvial", help="Ablation: no fluvial erosion (002 Eq. 14, Fig. 14).", rich_help_panel=PROCESSES)] = False,
+    precipitation: Annotated[float | None, typer.Option("--precipitation", parser=Number("m/y", 0.0), help="Precipitation p on the top of the domain (m/y; default: the scene's, 0.25). Fluvial erosion needs a layer with --k-t > 0.", rich_help_panel=PROCESSES)] = None,
+    sources: Annotated[list[str] | None, typer.Option("--source", help="Water source X,Y,Z,Q: a point (m, inside the domain) and its discharge Q (m³/y); repeatable, added to the scene's.", rich_help_panel=PROCESSES)] = None,
     wind_azimuth: Annotated[float | None, typer.Option("--wind-azimuth", parser=Number("degrees", 0.0, 360.0), help="Direction the storm wind comes from, degrees clockwise from north (default: the scene's; 270 = from the west).", rich_help_panel=PROCESSES)] = None,
     wind_elevation: Annotated[float | None, typer.Option("--wind-elevation", parser=Number("degrees", -90.0, 90.0), help="Elevation of the direction the wind comes from (degrees above the horizon; default: the scene's, 0).", rich_help_panel=PROCESSES)] = None,
     wind_speed: Annotated[float | None, typer.Option("--wind-speed", parser=Number("m/s", 0.0), help="Free wind speed U of abrasion (m/s; default: the scene's, 10).", rich_help_panel=PROCESSES)] = None,
@@ -45,6 +48,8 @@ def sandstone(
     color_by: Annotated[str, typer.Option("--color-by", help="Colour of preview.png: layer, stress (MPa) or viability.", rich_help_panel=OUTPUTS)] = "layer",
     top_format: Annotated[str, typer.Option("--top-format", help="Format of the top heightfield: tif (GeoTIFF) or exr.", rich_help_panel=OUTPUTS)] = "tif",
     snapshot_every: Annotated[int, typer.Option("--snapshot-every", min=0, help="Write the particles (snapshots/frame_NNNNN.ply) and the resumable state (state.npz) every this many frames; 0: never.", rich_help_panel=OUTPUTS)] = 0,
+    mesh: Annotated[Path | None, typer.Option("--mesh", help="Also write the closed surface mesh of the final particles, coloured by layer: OUT.ply (binary) or OUT.obj (with vertex colours); needs scikit-image: pip install 'unerode-cli[mesh]'.", rich_help_panel=OUTPUTS)] = None,
+    mesh_smoothing: Annotated[int, typer.Option("--mesh-smoothing", min=0, help="Taubin smoothing iterations of --mesh (they keep the volume; 0: the raw marching cubes).", rich_help_panel=OUTPUTS)] = 5,
     resume: Annotated[bool, typer.Option("--resume", help="Continue OUT_DIR's run from its state.npz up to --frames (same scene and options).", rich_help_panel=OUTPUTS)] = False,
     band: Annotated[int | None, typer.Option("--band", help="Band of a multi-band DEM (1-based).", rich_help_panel=RUN)] = None,
     channel: Annotated[str | None, typer.Option("--channel", help="EXR channel of the DEM (default: Y).", rich_help_panel=RUN)] = None,
@@ -56,17 +61,25 @@ def sandstone(
     with reported_errors(verbose - quiet):
         from unerode_cli.cli.common import SUMMARY, say
         from unerode_cli.cli.progress import progress_bar
+        from unerode_cli.cli.values import Numbers
+        from unerode_cli.errors import InputError
         from unerode_cli.jobs.sandstone import SandstoneJob, plan, run_job
         from unerode_cli.sandstone.simulation import Processes
 
+        try:
+            water_sources = tuple(Numbers("X,Y,Z,Q (m, m and m³/y)", 4).parse(text) for text in sources or ())
+        except ValueError as exc:
+            raise InputError(f"--source: {exc}.") from None
         job = SandstoneJob(
             scene=scene, out_dir=out_dir, extrude=extrude, particles=particles, frames=frames, dt=dt, seed=seed,
             threads=threads, substeps=substeps, settle_substeps=settle_substeps, tolerance=tolerance,
             processes=Processes(abrasion=not no_abrasion, deflation=not no_deflation,
-                                deposition=not no_deposition, stress=not no_stress),
+                                deposition=not no_deposition, stress=not no_stress, fluvial=not no_fluvial),
             wind_azimuth=wind_azimuth, wind_elevation=wind_elevation, wind_speed=wind_speed, alpha=alpha,
-            repose_angle=repose_angle, color_by=color_by, top_format=top_format,
-            snapshot_every=snapshot_every, resume=resume, overwrite=overwrite, band=band, channel=channel,
+            repose_angle=repose_angle, precipitation=precipitation, sources=water_sources,
+            color_by=color_by, top_format=top_format,
+            snapshot_every=snapshot_every, mesh=mesh, mesh_smoothing=mesh_smoothing, resume=resume,
+            overwrite=overwrite, band=band, channel=channel,
             parameter_values=parameter_values or {},
         )
         prepared = plan(job)
@@ -83,6 +96,7 @@ sandstone.__doc__ = (
     "and cylinders with sediment layers, painted regions and noise), a preset (arch, hoodoo) or a "
     "DEM extruded into a block; each frame computes the stress (MLS-MPM, corotated), switches the "
     "erodibility where the rock interlocks (compressive stress -tr σ above I), erodes the surface by "
-    "wind abrasion and deflation, and deposits what eroded on stable cells. Deterministic for a "
+    "wind abrasion and deflation and by the shear stress of the water routed over it in 3D (rain "
+    "and sources), and deposits what eroded on stable cells. Deterministic for a "
     "--seed whatever the threads."
 )

@@ -3,10 +3,15 @@ emission and the medium) then run the particles and write the outputs.
 
 Inputs: the DEM is the ground surface (m). A layered terrain (003 §4.2) adds a multi-band
 raster of layer thicknesses (m, bottom layer first) and a materials table; the base of the
-stack is the surface minus the total thickness. Outputs: the new surface (a DEM like the
-input), optionally the change map Δh (m), the layers (thicknesses in the input's format, the
-deposit layer on top), and a GeoJSON of sampled particle paths. The JSON sidecar holds the
-mass budget (m³) and the particle counts.
+stack is the surface minus the total thickness. A voxel terrain (003 §4.4: density or binary
+voxels) is a block built from the DEM (columns of about ``--voxel-size`` over its extent, from
+``--depth`` below its lowest cell to ``--headroom`` above its highest, CRS and origin kept),
+with 3D material layers from a YAML of horizons, or a volume read from ``--voxels`` (an .npz,
+``io.voxel_files``). Outputs: the new surface (a DEM like the input; on voxels the highest
+ground surface of each column, on the volume's columns), optionally the change map Δh (m), the
+layers (thicknesses in the input's format, the deposit layer on top) or the altered volume and
+its surface mesh, and a GeoJSON of sampled particle paths. The JSON sidecar holds the mass
+budget (m³) and the particle counts.
 
 Mass budget (``particles.ParticleBudget``): emitted + detached − deposited − suspended − lost
 = 0 up to rounding, and the terrain's volume changes by deposited − detached. ``emitted`` is
@@ -28,35 +33,74 @@ from typing import Any
 
 import numpy as np
 
+from affine import Affine
+
 from unerode_cli.errors import InputError
 from unerode_cli.io.grid_rasters import load_on_grid, read_bands_on_grid, write_bands
 from unerode_cli.io.material_files import read_materials
+from unerode_cli.io.mesh_files import mesh_format, write_mesh
 from unerode_cli.io.particle_paths import grid_to_map, write_paths
 from unerode_cli.io.paths import check_output
 from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.river_files import read_river_line
 from unerode_cli.io.terrain import Terrain
+from unerode_cli.io.voxel_files import (
+    VOXEL_SUFFIX,
+    MaterialLayers,
+    VoxelFile,
+    read_material_layers,
+    read_voxels,
+    voxel_file_layout,
+    write_voxels,
+)
 from unerode_cli.particles import (
     PARAMETERS,
+    REPRESENTATIONS,
+    VOXEL_REPRESENTATIONS,
+    BinaryTerrain,
+    DensityTerrain,
     Emission,
     HeightfieldTerrain,
     LayeredTerrain,
+    Material,
+    MaterialRules,
     ParticleParams,
     ParticleRun,
     Preset,
     VelocityField,
     get_preset,
+    run_bytes,
 )
 from unerode_cli.particles import Terrain as ParticleTerrain
 from unerode_cli.run.divergence import DivergenceGuard
 from unerode_cli.run.outputs import Outputs, check_png, check_raster, field_preview, save
 from unerode_cli.run.parameter_maps import resolve
+from unerode_cli.volume.mesh import MeshExtraMissing, enclosed_volume, marching_cubes_function
+from unerode_cli.volume.voxels import (
+    BinaryVoxels,
+    DensityVoxels,
+    binary_block,
+    block_geometry,
+    column_heights,
+    density_block,
+    ground_mesh,
+    horizon_material,
+)
 
 COMMAND = "particle-erode"
 #: Meander field of ``--velocity sin`` without numbers: 1 m/s, a quarter of the DEM's width.
 SIN_AMPLITUDE = 1.0
 SIN_WAVES_PER_WIDTH = 4.0
+#: A block built from a DEM reaches this many voxels below its lowest cell and above its
+#: highest one unless --depth / --headroom say otherwise.
+DEFAULT_DEPTH_VOXELS = 10
+DEFAULT_HEADROOM_VOXELS = 10
+#: Memory a voxel run may take unless --memory-budget says otherwise (GiB).
+DEFAULT_MEMORY_BUDGET_GIB = 4.0
+_VOXEL_OPTIONS = (("voxel_size", "--voxel-size"), ("depth", "--depth"), ("headroom", "--headroom"),
+                  ("voxels", "--voxels"), ("volume_out", "--volume-out"), ("mesh", "--mesh"),
+                  ("hits_per_voxel", "--hits-per-voxel"), ("hits_threshold", "--hits-threshold"))
 
 
 @dataclass(frozen=True)
@@ -67,7 +111,9 @@ class ParticleJob:
     coordinates in the DEM's CRS (m or degrees) or one GeoJSON/WKT line file; ``spread`` m;
     ``velocity`` "uniform:VE,VN[,VU]" (m/s), "sin[:AMPLITUDE,WAVELENGTH]" (m/s, m) or a 2/3-band
     raster path; ``emission_velocity`` "VE,VN[,VU]" (m/s); ``sea_level`` m; ``path_stride``
-    steps.
+    steps; ``representation`` heightfield, layers, density or binary (None: from the inputs and
+    the preset); ``voxel_size``, ``depth``, ``headroom`` m; ``memory_budget`` GiB;
+    ``hits_per_voxel`` α (hits per voxel volume) and ``hits_threshold`` C (hits) of binary voxels.
     """
 
     source: Path
@@ -97,6 +143,29 @@ class ParticleJob:
     band: int | None = None
     channel: str | None = None
     parameter_values: dict[str, str | None] = field(default_factory=dict)
+    representation: str | None = None
+    voxel_size: float | None = None
+    depth: float | None = None
+    headroom: float | None = None
+    voxels: Path | None = None
+    volume_out: Path | None = None
+    mesh: Path | None = None
+    memory_budget: float = DEFAULT_MEMORY_BUDGET_GIB
+    hits_per_voxel: float | None = None
+    hits_threshold: int | None = None
+
+
+@dataclass(frozen=True)
+class VoxelSetup:
+    """A voxel terrain and what its outputs need: ``surface`` its top heightfield before the
+    run, georeferenced (the reference of the emission, the medium and the outputs), the CRS
+    WKT and the material names of the volume, and what it was built from (``description``)."""
+
+    terrain: DensityTerrain | BinaryTerrain
+    surface: Terrain
+    crs_wkt: str
+    material_names: tuple[str, ...]
+    description: str
 
 
 @dataclass
@@ -115,6 +184,8 @@ class PreparedParticleJob:
     layers_out: Path | None
     provenance: dict[str, Any]
     notes: list[str]
+    surface: Terrain
+    volume: VoxelSetup | None = None
 
 
 @contextlib.contextmanager
@@ -140,12 +211,10 @@ def plan(job: ParticleJob) -> PreparedParticleJob:
     """Check the whole job before any work: options, outputs, inputs, parameters."""
     with bad_input():
         preset = get_preset(job.preset)
-    if (job.layers is None) != (job.materials is None):
-        raise InputError("a layered terrain needs both --layers (thicknesses) and --materials (table).")
-    if job.layers is None and (job.layer_materials or job.deposit_material or job.layers_out):
-        raise InputError("--layer-materials, --deposit-material and --layers-out need --layers.")
+    representation = _representation(job, preset)
+    _check_terrain_options(job, representation)
     outputs = job.outputs
-    inputs = tuple(p for p in (job.source, job.layers, job.materials, job.rain_mask) if p is not None)
+    inputs = tuple(p for p in (job.source, job.layers, job.materials, job.rain_mask, job.voxels) if p is not None)
     outputs.check(*inputs)
     layers_out = None
     if job.layers is not None:
@@ -154,26 +223,32 @@ def plan(job: ParticleJob) -> PreparedParticleJob:
             raise InputError(f"the layers output must be a GeoTIFF (.tif), got {layers_out.name}.")
     rasters = [p for p in (job.change_map, layers_out) if p is not None]
     pngs = [change_preview_path(job.change_map)] if job.change_map and outputs.preview else []
-    extra = [*rasters, *pngs, *([job.paths] if job.paths is not None else [])]
+    files = [p for p in (job.paths, job.volume_out, job.mesh) if p is not None]
+    extra = [*rasters, *pngs, *files]
     if len(set(map(Path.resolve, [outputs.path, *extra]))) != len(extra) + 1:
         raise InputError("two outputs have the same path.")
     for path in rasters:
         check_raster(path, outputs.options, outputs.overwrite, inputs)
     for path in pngs:
         check_png(path, outputs.overwrite, inputs)
-    if job.paths is not None:
-        check_output(job.paths, outputs.overwrite, inputs)
+    for path in files:
+        check_output(path, outputs.overwrite, inputs)
     _check_counts(job)
     _check_sources(job)
     dem = read_terrain(job.source, band=job.band, channel=job.channel)
     dem.check_valid(job.source)
-    grid = dem.grid
     outputs.check_source(dem, job.source)
-    params = particle_params(preset, job.parameter_values, dem)
     notes: list[str] = []
-    emission = build_emission(job, preset, params, dem, notes)
-    velocity = build_velocity(job, preset, dem)
-    if job.layers is not None:
+    volume = voxel_setup(job, dem, representation, notes) if representation in VOXEL_REPRESENTATIONS else None
+    surface = dem if volume is None else volume.surface
+    grid = surface.grid
+    params = particle_params(preset, job.parameter_values, surface)
+    emission = build_emission(job, preset, params, surface, notes)
+    velocity = build_velocity(job, preset, surface)
+    terrain: ParticleTerrain
+    if volume is not None:
+        terrain = volume.terrain
+    elif representation == "layers":
         terrain = layered_terrain(job, dem, notes)
     else:
         with bad_input():
@@ -185,8 +260,9 @@ def plan(job: ParticleJob) -> PreparedParticleJob:
             velocity.validate(grid)
     iterations = preset.iterations if job.iterations is None else job.iterations
     provenance = {
-        "input": job.source, "preset": preset.name, "particles_per_iteration": emission.count,
-        "iterations": iterations, "emission": emission.kind, "source_points": _points(emission, dem),
+        "input": job.source, "preset": preset.name, "representation": representation,
+        "particles_per_iteration": emission.count,
+        "iterations": iterations, "emission": emission.kind, "source_points": _points(emission, surface),
         "spread_m": emission.spread, "rain_mask": job.rain_mask, "emission_velocity_m_s": emission.velocity,
         "velocity": job.velocity, "velocity_medium": None if velocity is None else velocity.medium,
         "sea_level_m": job.sea_level, "layers": job.layers, "materials": job.materials,
@@ -195,8 +271,64 @@ def plan(job: ParticleJob) -> PreparedParticleJob:
     if isinstance(terrain, LayeredTerrain):
         provenance["layer_materials"] = [terrain.materials[m].name for m in terrain.layer_material]
         provenance["deposit_material"] = terrain.materials[terrain.deposit_material].name
+    if volume is not None:
+        provenance.update(_volume_provenance(volume))
     return PreparedParticleJob(job, dem, terrain, params, emission, velocity, iterations, outputs,
-                               layers_out, provenance, notes)
+                               layers_out, provenance, notes, surface, volume)
+
+
+def _representation(job: ParticleJob, preset: Preset) -> str:
+    """The terrain representation: --representation, else that of --voxels' file, else
+    "layers" with --layers, else the preset's."""
+    if job.representation is not None:
+        if job.representation not in REPRESENTATIONS:
+            raise InputError(f"unknown representation '{job.representation}'; choose "
+                             f"{', '.join(REPRESENTATIONS[:-1])} or {REPRESENTATIONS[-1]}.")
+        return job.representation
+    if job.voxels is not None:
+        return voxel_file_layout(job.voxels)[1]
+    return "layers" if job.layers is not None else preset.representation
+
+
+def _check_terrain_options(job: ParticleJob, representation: str) -> None:
+    """The options of one representation are refused with another."""
+    if representation == "layers":
+        if job.layers is None or job.materials is None:
+            raise InputError("a layered terrain needs both --layers (thicknesses) and --materials (table).")
+    elif job.layers is not None or job.layer_materials or job.layers_out:
+        raise InputError(f"--layers, --layer-materials and --layers-out describe a layered terrain, not "
+                         f"a {representation} one.")
+    if representation in VOXEL_REPRESENTATIONS:
+        if job.voxels is not None:
+            given = [option for name, option in _VOXEL_OPTIONS[:3] if getattr(job, name) is not None]
+            if given:
+                raise InputError(f"{', '.join(given)} build a block from the DEM; --voxels brings its own grid.")
+        if representation == "density" and (job.hits_per_voxel is not None or job.hits_threshold is not None):
+            raise InputError("--hits-per-voxel and --hits-threshold are for binary voxels.")
+        for value, option, low in ((job.voxel_size, "--voxel-size", 0.0), (job.depth, "--depth", -1.0),
+                                   (job.headroom, "--headroom", -1.0), (job.hits_per_voxel, "--hits-per-voxel", 0.0)):
+            if value is not None and not (math.isfinite(value) and value > low):
+                raise InputError(f"{option} must be a {'positive' if low == 0 else 'non-negative'} number, "
+                                 f"got {value}.")
+        if job.hits_threshold is not None and job.hits_threshold < 1:
+            raise InputError(f"--hits-threshold must be at least 1, got {job.hits_threshold}.")
+        if not (math.isfinite(job.memory_budget) and job.memory_budget > 0):
+            raise InputError(f"--memory-budget must be a positive number of GiB, got {job.memory_budget}.")
+        if job.volume_out is not None and job.volume_out.suffix.lower() != VOXEL_SUFFIX:
+            raise InputError(f"--volume-out writes a {VOXEL_SUFFIX} file, not '{job.volume_out.name}'.")
+        if job.mesh is not None:
+            try:
+                mesh_format(job.mesh)
+                marching_cubes_function()
+            except (ValueError, MeshExtraMissing) as exc:
+                raise InputError(f"--mesh: {str(exc).rstrip('.')}.") from None
+        return
+    if representation == "heightfield" and (job.materials is not None or job.deposit_material):
+        raise InputError("--materials and --deposit-material need a layered terrain (--layers) or voxels "
+                         "(--representation density or binary).")
+    given = [option for name, option in _VOXEL_OPTIONS if getattr(job, name) is not None]
+    if given:
+        raise InputError(f"{', '.join(given)} need voxels (--representation density or binary).")
 
 
 def _check_counts(job: ParticleJob) -> None:
@@ -294,6 +426,13 @@ def build_emission(job: ParticleJob, preset: Preset, params: ParticleParams, dem
                 notes.append(f"note: the rain mask {job.rain_mask} has {holes} nodata cell(s) inside the "
                              "DEM; no rain starts there (weight 0).")
             mask = np.nan_to_num(weights, nan=0.0)
+        elif preset.rain_below_sea and job.sea_level is not None:
+            mask = dem.grid.valid & (np.nan_to_num(dem.elevation, nan=np.inf) < job.sea_level)
+            if not mask.any():
+                raise InputError(f"no cell's ground lies below --sea-level {job.sea_level:g} m, where the "
+                                 f"{preset.name} preset's particles start; give a --rain-mask.")
+            notes.append(f"note: the {preset.name} preset's particles start over the {int(mask.sum())} cell(s) "
+                         f"whose ground is below --sea-level {job.sea_level:g} m.")
         return Emission.rain(count, mask, velocity=velocity)
     spread = params.radius if job.spread is None else job.spread
     return Emission.source(count, source_points(job, dem, notes), spread=spread, velocity=velocity)
@@ -359,6 +498,157 @@ def layered_terrain(job: ParticleJob, dem: Terrain, notes: list[str]) -> Layered
                               names.index(deposit), dem.grid)
 
 
+def _check_memory(voxels: int, representation: str, with_material: bool, budget_gib: float, what: str) -> None:
+    """Refuse a voxel grid whose run would need more than ``budget_gib`` GiB."""
+    needed = run_bytes(voxels, representation, with_material)
+    if needed > budget_gib * 2**30:
+        raise InputError(f"{what} has {voxels:,} voxels, whose run needs about {needed / 2**30:.1f} GiB, more "
+                         f"than the {budget_gib:g} GiB of --memory-budget; use larger voxels or a smaller "
+                         "area, or raise --memory-budget.")
+
+
+def _voxel_materials(job: ParticleJob, notes: list[str]) -> tuple[list[Material] | None, MaterialLayers | None]:
+    """The materials of a voxel terrain: --materials as a CSV table (materials only) or a YAML
+    of 3D material layers (``io.voxel_files``); (None, None) without --materials."""
+    if job.materials is None:
+        return None, None
+    if job.materials.suffix.lower() in (".yaml", ".yml"):
+        layers = read_material_layers(job.materials)
+        return list(layers.materials), layers
+    return read_materials(job.materials, on_note=notes.append), None
+
+
+def _material_index(name: str, materials: list[Material], where: Path | None) -> int:
+    names = [m.name for m in materials]
+    if name not in names:
+        raise InputError(f"material '{name}' is not in the materials table {where}.")
+    return names.index(name)
+
+
+def _block(job: ParticleJob, dem: Terrain, representation: str, with_material: bool) -> DensityVoxels | BinaryVoxels:
+    """The block under the DEM (``volume.voxels.density_block`` / ``binary_block``)."""
+    if not (math.isclose(dem.transform.a, dem.dx, rel_tol=1e-6) and math.isclose(-dem.transform.e, dem.dy,
+                                                                                 rel_tol=1e-6)):
+        raise InputError(f"{job.source} is not in a projected CRS in metres; a voxel block needs one "
+                         "(reproject it, e.g. gdalwarp -t_srs EPSG:32632).")
+    size = job.voxel_size or 0.5 * (dem.dx + dem.dy)
+    valid = dem.grid.valid
+    low, high = float(np.nanmin(dem.elevation)), float(np.nanmax(dem.elevation))
+    depth = DEFAULT_DEPTH_VOXELS * size if job.depth is None else job.depth
+    headroom = DEFAULT_HEADROOM_VOXELS * size if job.headroom is None else job.headroom
+    ny, nx = dem.shape
+    west, north = dem.transform.c, dem.transform.f
+    with bad_input():
+        geometry = block_geometry(west, north, nx * dem.dx, ny * dem.dy, low - depth, high + headroom, size)
+    _check_memory(geometry.count, representation, with_material, job.memory_budget,
+                  f"the block of {size:g} m voxels under {job.source.name}")
+    heights, columns = column_heights(dem.elevation, valid, dem.dx, dem.dy, geometry.shape[:2])
+    if representation == "density":
+        return DensityVoxels(geometry, density_block(heights, geometry), valid=columns)
+    return BinaryVoxels(geometry, binary_block(heights, geometry), valid=columns)
+
+
+def _converted(voxels: DensityVoxels | BinaryVoxels, representation: str) -> DensityVoxels | BinaryVoxels:
+    """The voxels as ``representation``: binary voxels read as densities ±1, densities as
+    binary voxels where f > 0 (003 §4.4: one can be turned into the other)."""
+    if representation == "density" and isinstance(voxels, BinaryVoxels):
+        return DensityVoxels(voxels.geometry, np.where(voxels.solid, 1.0, -1.0), voxels.material, voxels.valid)
+    if representation == "binary" and isinstance(voxels, DensityVoxels):
+        return BinaryVoxels(voxels.geometry, voxels.density > 0.0, None, voxels.material, voxels.valid)
+    return voxels
+
+
+def _from_file(job: ParticleJob, representation: str, materials: list[Material] | None,
+               layers: MaterialLayers | None) -> tuple[DensityVoxels | BinaryVoxels, VoxelFile]:
+    """The volume of --voxels as ``representation``, its material indices those of ``materials``."""
+    assert job.voxels is not None
+    shape, _, has_material = voxel_file_layout(job.voxels)
+    _check_memory(shape[0] * shape[1] * shape[2], representation, has_material or materials is not None,
+                  job.memory_budget, f"the voxel file {job.voxels.name}")
+    file = read_voxels(job.voxels)
+    voxels = _converted(file.voxels, representation)
+    if voxels.material is None:
+        return voxels, file
+    if materials is None:
+        raise InputError(f"the voxel file {job.voxels} has a material index: give the materials' erodibilities "
+                         "with --materials.")
+    if layers is not None and layers.tops:
+        raise InputError(f"the voxel file {job.voxels} has its own material index; --materials gives horizons, "
+                         "which are for a block built from the DEM.")
+    if file.material_names:
+        lookup = np.array([_material_index(name, materials, job.materials) for name in file.material_names],
+                          dtype=np.int16)
+        voxels.material = lookup[voxels.material]
+    elif int(voxels.material.max()) >= len(materials):
+        raise InputError(f"the voxel file {job.voxels} uses material index {int(voxels.material.max())}, and "
+                         f"the materials table {job.materials} has {len(materials)} material(s).")
+    return voxels, file
+
+
+def voxel_setup(job: ParticleJob, dem: Terrain, representation: str, notes: list[str]) -> VoxelSetup:
+    """The voxel terrain (003 §4.4) of the job: --voxels' volume, or a block built from the DEM;
+    its materials and material rules from --materials and --deposit-material."""
+    materials, layers = _voxel_materials(job, notes)
+    file = None
+    if job.voxels is not None:
+        voxels, file = _from_file(job, representation, materials, layers)
+        crs_wkt = file.crs_wkt or dem.crs_wkt
+        description = f"the volume {job.voxels.name}"
+    else:
+        voxels = _block(job, dem, representation, materials is not None)
+        crs_wkt = dem.crs_wkt
+        description = f"a block under {job.source.name}"
+    if materials is not None and voxels.material is None:
+        if layers is None or not layers.tops:
+            raise InputError(f"the materials {job.materials} give no horizons to place in the volume: use a YAML "
+                             "of 3D material layers with 'horizons' (or a voxel file with a material index).")
+        voxels.material = horizon_material(voxels.geometry, np.array(layers.tops),
+                                           np.array(layers.horizon_materials))
+    rules = MaterialRules()
+    if materials is not None:
+        deposit = (layers.deposit if layers is not None else None)
+        if job.deposit_material:
+            deposit = _material_index(job.deposit_material, materials, job.materials)
+        elif deposit is None and layers is not None and layers.horizon_materials and file is None:
+            deposit = layers.horizon_materials[-1]
+        rules = MaterialRules(-1 if deposit is None else deposit, dict(layers.eroded) if layers else {})
+    names = tuple(m.name for m in materials) if materials is not None else ()
+    with bad_input():
+        if representation == "density":
+            terrain: DensityTerrain | BinaryTerrain = DensityTerrain(voxels, materials, rules)
+        else:
+            binary = {"alpha": job.hits_per_voxel, "threshold": job.hits_threshold}
+            terrain = BinaryTerrain(voxels, materials, rules, **{k: v for k, v in binary.items() if v is not None})
+    return VoxelSetup(terrain, _surface_raster(terrain, crs_wkt, dem), crs_wkt, names, description)
+
+
+def _surface_raster(terrain: DensityTerrain | BinaryTerrain, crs_wkt: str, dem: Terrain) -> Terrain:
+    """The top heightfield of a voxel terrain as a raster on its columns (NaN outside the
+    domain), with the DEM's nodata value and tags."""
+    geometry = terrain.voxels.geometry
+    dx, dy, _ = geometry.size
+    west, north, _ = geometry.origin
+    elevation = np.where(terrain.grid.valid, terrain.surface(), np.nan)
+    return Terrain(elevation, dx, dy, crs_wkt, Affine(dx, 0.0, west, 0.0, -dy, north), dem.nodata, dict(dem.tags))
+
+
+def _volume_provenance(volume: VoxelSetup) -> dict[str, Any]:
+    terrain = volume.terrain
+    geometry = terrain.voxels.geometry
+    info: dict[str, Any] = {"volume": volume.description, "voxel_size_m": list(geometry.size),
+                            "voxel_shape_rows_columns_layers": list(geometry.shape),
+                            "volume_origin_west_north_bottom_m": list(geometry.origin)}
+    if volume.material_names:
+        info["materials_3d"] = list(volume.material_names)
+        deposit = terrain.rules.deposit
+        info["deposit_material"] = volume.material_names[deposit] if deposit >= 0 else None
+        info["eroded_becomes"] = {volume.material_names[a]: volume.material_names[b]
+                                  for a, b in terrain.rules.eroded.items()}
+    if isinstance(terrain, BinaryTerrain):
+        info.update(hits_per_voxel=terrain.alpha, hits_threshold=terrain.threshold)
+    return info
+
+
 def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] | None = None,
             on_note: Callable[[str], None] | None = None) -> str:
     """Run the particles, write the outputs, and return a one-line summary."""
@@ -366,7 +656,7 @@ def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] |
 
     from unerode_cli.particles import run
 
-    job, dem = prepared.job, prepared.dem
+    job, dem = prepared.job, prepared.surface
     for note in prepared.notes:
         if on_note is not None:
             on_note(note)
@@ -380,7 +670,9 @@ def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] |
     seconds = time.perf_counter() - start
     DivergenceGuard(dem.elevation, hint="lower the particle count or the erosion rates").check(
         result.elevation, 0.0, f"after {prepared.iterations} iterations")
-    stats = statistics(result, dem, seconds)
+    stats = statistics(result, dem, seconds, prepared.terrain)
+    if prepared.volume is not None:
+        _write_volume(result, prepared, stats)
     surface = dem.with_elevation(result.elevation)
     save(surface, prepared.outputs, COMMAND, prepared.provenance, stats, seed=job.seed)
     outputs = prepared.outputs
@@ -395,29 +687,46 @@ def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] |
     if job.paths is not None:
         write_paths(job.paths, result.paths, dem, prepared.emission.count)
     b = result.budget
-    return (f"{COMMAND}: {prepared.provenance['preset']} preset, {result.stats.particles} particles "
+    return (f"{COMMAND}: {prepared.provenance['preset']} preset on {prepared.provenance['representation']}, "
+            f"{result.stats.particles} particles "
             f"({prepared.iterations} × {prepared.emission.count}), {result.stats.impacts} impacts in "
             f"{seconds:.2f} s; detached {b.detached:.4g} m³, deposited {b.deposited:.4g} m³, lost at "
             f"edges {b.lost:.4g} m³, suspended {b.suspended:.4g} m³, emitted {b.emitted:.4g} m³ "
             f"(residual {stats['mass_budget_m3']['relative_residual']:.1e}); wrote {outputs.path}")
 
 
-def statistics(result: ParticleRun, dem: Terrain, seconds: float) -> dict[str, Any]:
-    """Run statistics for the sidecar: mass budget (m³), counts, Δh and speed."""
+def statistics(result: ParticleRun, dem: Terrain, seconds: float, terrain: ParticleTerrain) -> dict[str, Any]:
+    """Run statistics for the sidecar: mass budget (m³), counts, Δh and speed; on voxels the
+    change of the volume's matter, what left the grid and the hits of binary voxels."""
     b = result.budget
     scale = b.detached + b.emitted
     valid = dem.grid.valid
     dh = result.dh[valid]
+    change = math.fsum(dh) * dem.dx * dem.dy
+    extra: dict[str, Any] = {}
+    if isinstance(result.terrain, DensityTerrain | BinaryTerrain):
+        change = result.terrain.matter() - terrain.matter()
+        extra["top_surface_volume_change"] = math.fsum(dh) * dem.dx * dem.dy
+    if isinstance(result.terrain, DensityTerrain):
+        extra["left_grid"] = result.terrain.left
+    extra_stats: dict[str, Any] = {}
+    if isinstance(result.terrain, BinaryTerrain):
+        extra_stats["binary_voxels"] = dict(zip(
+            ("erosion_hits", "deposition_hits", "voxels_removed", "voxels_added", "voxels_transformed",
+             "unplaced_hits"), (int(v) for v in result.terrain.counters), strict=True))
     return {
         "mass_budget_m3": {
             "detached": b.detached, "deposited": b.deposited, "suspended": b.suspended,
             "lost_at_edges": b.lost, "emitted": b.emitted, "dropped": b.dropped,
             "residual": b.residual, "relative_residual": abs(b.residual) / scale if scale > 0 else 0.0,
-            "terrain_volume_change": math.fsum(dh) * dem.dx * dem.dy,
+            "terrain_volume_change": change, **extra,
         },
+        **extra_stats,
         "mass_budget_note": (
             "emitted + detached - deposited - suspended - lost_at_edges = residual (0 up to rounding); "
-            "the terrain's volume changes by deposited - detached. 'emitted' is matter added by design "
+            "the terrain's volume changes by deposited - detached (density voxels: by that less "
+            "'left_grid', what went through the grid's top or bottom; binary voxels flip whole voxels "
+            "from hit counts, so their change only follows it). 'emitted' is matter added by design "
             "(initial_load, e.g. the volcano preset), 'suspended' matter removed by design "
             "(keep_suspended, e.g. the coastal preset); 'dropped' is the part of 'deposited' left "
             "where particles died."),
@@ -427,6 +736,24 @@ def statistics(result: ParticleRun, dem: Terrain, seconds: float) -> dict[str, A
         "max_deposition_m": float(max(0.0, dh.max())), "wall_time_s": seconds,
         "particles_per_second": result.stats.particles / seconds if seconds > 0 else None,
     }
+
+
+def _write_volume(result: ParticleRun, prepared: PreparedParticleJob, stats: dict[str, Any]) -> None:
+    """--volume-out (the altered volume) and --mesh (its ground's surface mesh)."""
+    job, volume = prepared.job, prepared.volume
+    terrain = result.terrain
+    assert volume is not None and isinstance(terrain, DensityTerrain | BinaryTerrain)
+    if job.volume_out is not None:
+        write_voxels(job.volume_out, VoxelFile(terrain.voxels, volume.crs_wkt, volume.material_names))
+    if job.mesh is not None:
+        mesh = ground_mesh(terrain.voxels)
+        west, north, bottom = terrain.voxels.geometry.origin
+        south = north - terrain.voxels.geometry.shape[0] * terrain.voxels.geometry.size[1]
+        write_mesh(job.mesh, mesh, overwrite=True, origin=(west, south, bottom), crs_wkt=volume.crs_wkt or None,
+                   comments=(f"unerode-cli {COMMAND}: {volume.description}",
+                             "material: the voxel's material index (0 without materials)"))
+        stats["mesh"] = {"file": str(job.mesh), "vertices": len(mesh.vertices), "faces": len(mesh.faces),
+                         "enclosed_volume_m3": enclosed_volume(mesh)}
 
 
 def _write_layers(result: ParticleRun, prepared: PreparedParticleJob, stats: dict[str, Any]) -> None:

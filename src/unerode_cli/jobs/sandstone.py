@@ -6,7 +6,9 @@ compression positive), erodibility E in 1/y, layer, surface, deposit, interlocke
 ``top.tif`` or ``top.exr`` (the top heightfield; a DEM's grid and CRS when extruded),
 ``preview.png``, ``frames.csv`` (one row per frame), ``run.json`` (parameters, seed, versions,
 totals), and with ``--snapshot-every N`` the particles every N frames in ``snapshots/`` plus
-``state.npz``, the state a ``--resume`` continues from.
+``state.npz``, the state a ``--resume`` continues from. ``--mesh OUT.ply|OUT.obj`` adds the
+closed surface mesh of the final particles, coloured by layer (its counts and enclosed volume go
+to ``run.json``).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from unerode_cli.errors import InputError
 from unerode_cli.io.checkpoints import read_checkpoint, write_checkpoint
 from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.json_files import to_json, write_json
+from unerode_cli.io.mesh_files import mesh_format, write_mesh
 from unerode_cli.io.particle_ply import write_particle_ply
 from unerode_cli.io.paths import atomic_path, check_output
 from unerode_cli.io.provenance import append_history, history_entry
@@ -36,6 +39,7 @@ from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.versions import io_library_versions
 from unerode_cli.sandstone.deflation import DeflationParams
 from unerode_cli.sandstone.deposition import DepositionParams
+from unerode_cli.sandstone.fluvial import FluvialParams
 from unerode_cli.sandstone.layers import LAYER_PARAMETERS, ROCK_PARAMETERS, Layer, LayerStack, Rock
 from unerode_cli.sandstone.mpm import MpmParams
 from unerode_cli.sandstone.particles import Particles
@@ -49,11 +53,13 @@ from unerode_cli.sandstone.sampling import (
     solid_particles,
     top_surface,
 )
-from unerode_cli.sandstone.scene import Scene, Wind
+from unerode_cli.sandstone.scene import Scene, Water, Wind
 from unerode_cli.sandstone.simulation import STAGES, FrameStats, Processes, Simulation, SimulationParams
 from unerode_cli.sandstone.surface import surface_particles
 from unerode_cli.sandstone.wind import WindParams
 from unerode_cli.viz.particles_preview import save_particles_preview
+from unerode_cli.volume.mesh import MeshExtraMissing, enclosed_volume, marching_cubes_function
+from unerode_cli.volume.particle_surface import SMOOTHING, particle_mesh
 
 COMMAND = "sandstone"
 COLOR_BY = ("layer", "stress", "viability")
@@ -63,7 +69,8 @@ MEMORY_SHARE = 0.8
 #: Headroom above an extruded DEM's highest cell, as a share of its height above the base.
 DEM_HEADROOM = 0.25
 FRAME_COLUMNS = ["frame", "particles", "eroded", "deposited", "exported", "surface", "interlocked_share",
-                 "max_stress_mpa", "mpm_substeps", "mpm_residual", *(f"{s}_s" for s in STAGES)]
+                 "max_stress_mpa", "mpm_substeps", "mpm_residual", "eroded_fluvial", "discharge_max_m3y",
+                 *(f"{s}_s" for s in STAGES)]
 PARTICLES_FILE, FRAMES_FILE, RUN_FILE, STATE_FILE, PREVIEW_FILE = (
     "particles.ply", "frames.csv", "run.json", "state.npz", "preview.png")
 SNAPSHOTS = "snapshots"
@@ -73,7 +80,9 @@ SNAPSHOTS = "snapshots"
 class SandstoneJob:
     """What the user asked for. ``scene``: a scene YAML path, a preset name or a DEM path (with
     ``extrude``, the base altitude in m); ``dt`` years; wind azimuth and elevation in degrees,
-    speed in m/s; ``alpha`` Pa; ``repose_angle`` degrees; None = the scene's or the default."""
+    speed in m/s; ``alpha`` Pa; ``repose_angle`` degrees; ``precipitation`` m/y; ``sources``
+    water sources (x, y, z in m, Q in m³/y) added to the scene's; None = the scene's or the
+    default."""
 
     scene: str
     out_dir: Path
@@ -92,9 +101,13 @@ class SandstoneJob:
     wind_speed: float | None = None
     alpha: float = DeflationParams.alpha
     repose_angle: float = DepositionParams.repose_angle
+    precipitation: float | None = None
+    sources: tuple[tuple[float, float, float, float], ...] = ()
     color_by: str = "layer"
     top_format: str = "tif"
     snapshot_every: int = 0
+    mesh: Path | None = None
+    mesh_smoothing: int = SMOOTHING
     resume: bool = False
     overwrite: bool = False
     band: int | None = None
@@ -114,6 +127,7 @@ class Source:
     expected: float
     build: Callable[[int], Particles]
     dem: Terrain | None = None
+    water: Water = field(default_factory=Water)
 
 
 @dataclass
@@ -137,6 +151,7 @@ def plan(job: SandstoneJob) -> PreparedSandstone:
     layers, rock = _overridden(source.layers, source.rock, job.parameter_values)
     source.layers, source.rock = layers, rock
     wind = source.wind
+    _check_sources(job, source)
     try:
         params = SimulationParams(
             dt=job.dt,
@@ -149,6 +164,8 @@ def plan(job: SandstoneJob) -> PreparedSandstone:
             deflation=DeflationParams(alpha=job.alpha, cohesion=rock.cohesion, friction=rock.friction),
             deposition=DepositionParams(repose_angle=job.repose_angle,
                                         deposit_viability=rock.deposit_viability),
+            fluvial=FluvialParams(precipitation=_given(job.precipitation, source.water.precipitation),
+                                  sources=source.water.source_tuples() + job.sources),
             processes=job.processes)
     except ValueError as exc:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
@@ -161,7 +178,8 @@ def plan(job: SandstoneJob) -> PreparedSandstone:
         "frames": job.frames, "dt_years": job.dt, "layers": [asdict(layer) for layer in layers.layers],
         "deposit_layer": asdict(layers.deposit), "rock": asdict(rock), "mpm": asdict(params.mpm),
         "wind": asdict(params.wind), "deflation": asdict(params.deflation),
-        "deposition": asdict(params.deposition), "processes": asdict(params.processes),
+        "deposition": asdict(params.deposition), "fluvial": asdict(params.fluvial),
+        "processes": asdict(params.processes),
     }
     if source.dem is not None:
         provenance["dem_transform"] = list(source.dem.transform)[:6]
@@ -175,11 +193,23 @@ def _given(value: float | None, default: float) -> float:
     return default if value is None else value
 
 
+def _check_sources(job: SandstoneJob, source: Source) -> None:
+    """Refuse a --source whose point lies outside the domain."""
+    low = np.asarray(source.lattice.low, dtype=float)
+    high = low + np.asarray(source.lattice.size, dtype=float)
+    for x, y, z, _ in job.sources:
+        if not np.all((np.array([x, y, z]) >= low) & (np.array([x, y, z]) <= high)):
+            raise InputError(f"--source {x:g},{y:g},{z:g}: the point lies outside the domain, which spans "
+                             f"x {low[0]:g} to {high[0]:g} m, y {low[1]:g} to {high[1]:g} m and z {low[2]:g} "
+                             f"to {high[2]:g} m.")
+
+
 def _check_options(job: SandstoneJob) -> None:
     for option, value, low in (("--frames", job.frames, 1), ("--particles", job.particles, 1),
                                ("--threads", job.threads, 1), ("--substeps", job.substeps, 1),
                                ("--settle-substeps", job.settle_substeps, 1),
-                               ("--snapshot-every", job.snapshot_every, 0)):
+                               ("--snapshot-every", job.snapshot_every, 0),
+                               ("--mesh-smoothing", job.mesh_smoothing, 0)):
         if value is not None and value < low:
             raise InputError(f"{option} must be at least {low}, got {value}.")
     if not (math.isfinite(job.dt) and job.dt > 0):
@@ -190,6 +220,12 @@ def _check_options(job: SandstoneJob) -> None:
         raise InputError(f"--color-by must be one of {', '.join(COLOR_BY)}, got '{job.color_by}'.")
     if job.top_format not in TOP_FORMATS:
         raise InputError(f"--top-format must be tif or exr, got '{job.top_format}'.")
+    if job.mesh is not None:
+        try:
+            mesh_format(job.mesh)
+            marching_cubes_function()
+        except (ValueError, MeshExtraMissing) as exc:
+            raise InputError(f"--mesh: {exc}.") from None
     if job.resume and job.overwrite:
         raise InputError("--resume continues OUT_DIR's run and --overwrite starts it afresh: "
                          "give one of them.")
@@ -205,6 +241,10 @@ def _output_paths(job: SandstoneJob) -> dict[str, Path]:
     paths = {"particles": out / PARTICLES_FILE, "top": out / f"top.{job.top_format}",
              "preview": out / PREVIEW_FILE, "frames": out / FRAMES_FILE, "run": out / RUN_FILE,
              "state": out / STATE_FILE}
+    if job.mesh is not None:
+        if not job.mesh.parent.exists():
+            raise InputError(f"the folder of --mesh {job.mesh} does not exist.")
+        paths["mesh"] = job.mesh
     if not (job.overwrite or job.resume):
         for path in [*paths.values(), out / SNAPSHOTS]:
             if path.exists():
@@ -241,7 +281,7 @@ def _scene_source(scene: Scene, description: str, job: SandstoneJob) -> Source:
     except ValueError as exc:
         raise InputError(f"{description}: {str(exc).rstrip('.')}.") from None
     return Source(description, layers, rock, scene.wind, lattice, expected,
-                  lambda seed: scene_particles(scene, lattice, seed))
+                  lambda seed: scene_particles(scene, lattice, seed), water=scene.water)
 
 
 def _dem_source(path: Path, job: SandstoneJob) -> Source:
@@ -358,7 +398,8 @@ def run_job(prepared: PreparedSandstone, on_frame: Callable[[FrameStats], None] 
 def _row(stats: FrameStats) -> dict[str, Any]:
     row = {k: getattr(stats, k) for k in FRAME_COLUMNS[:7]}
     row.update(max_stress_mpa=stats.max_stress / 1e6, mpm_substeps=stats.mpm_substeps,
-               mpm_residual=stats.mpm_residual, **{f"{s}_s": stats.seconds[s] for s in STAGES})
+               mpm_residual=stats.mpm_residual, eroded_fluvial=stats.eroded_fluvial,
+               discharge_max_m3y=stats.discharge_max, **{f"{s}_s": stats.seconds[s] for s in STAGES})
     return row
 
 
@@ -389,6 +430,7 @@ def _write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: li
     job, source, outputs = prepared.job, prepared.source, prepared.outputs
     p = simulation.particles
     _ply(outputs["particles"], prepared, simulation)
+    mesh = _mesh(prepared, simulation) if job.mesh is not None else None
     entry = history_entry(COMMAND, prepared.provenance, job.seed)
     top = _top(source, p)
     append_history(top, entry)
@@ -408,13 +450,38 @@ def _write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: li
                 **io_library_versions()}
     statistics = {
         "particles": len(p), "frames": simulation.frame,
-        **{key: sum(r[key] for r in rows) for key in ("eroded", "deposited", "exported")},
+        **{key: sum(r[key] for r in rows) for key in ("eroded", "deposited", "exported", "eroded_fluvial")},
+        "discharge_max_m3y": max((r["discharge_max_m3y"] for r in rows), default=0.0),
         "interlocked_share": float(p.interlocked.mean()) if len(p) else 0.0,
         "wall_time_s": seconds, "sampling_s": sampled,
         "stage_seconds": {stage: sum(r[f"{stage}_s"] for r in rows) for stage in STAGES},
+        **({"mesh": mesh} if mesh is not None else {}),
     }
     write_json(outputs["run"], {**entry, "versions": versions, "threads": numba.get_num_threads(),
                                 "statistics": statistics})
+
+
+def _mesh(prepared: PreparedSandstone, simulation: Simulation) -> dict[str, Any]:
+    """Write the surface mesh of the final particles (each a lattice cell of rock, on the
+    domain's floor as the ground); its vertex and face counts, enclosed volume (m³) and time. For
+    an extruded DEM whose CRS is in metres, the header gives its south-west corner as the origin."""
+    job, source = prepared.job, prepared.source
+    start = time.perf_counter()
+    p, lattice = simulation.particles, source.lattice
+    mesh = particle_mesh(p.positions, p.layer, lattice.spacing**3, lattice.spacing, job.mesh_smoothing,
+                         ground=lattice.low[2])
+    origin, crs_wkt = (0.0, 0.0, 0.0), None
+    dem = source.dem
+    if dem is not None and math.isclose(dem.transform.a, dem.dx) and math.isclose(-dem.transform.e, dem.dy):
+        west, south = dem.transform * (0, dem.shape[0])
+        origin, crs_wkt = (west, south, 0.0), dem.crs_wkt or None
+    write_mesh(prepared.outputs["mesh"], mesh, overwrite=True, origin=origin, crs_wkt=crs_wkt,
+               comments=(f"unerode-cli {COMMAND}: {source.description}, frame {simulation.frame}",
+                         "vertex colour: the layer's, as in preview.png; material: the layer (bottom = 0, "
+                         "the last is deposits)"))
+    return {"file": str(job.mesh), "vertices": len(mesh.vertices), "faces": len(mesh.faces),
+            "enclosed_volume_m3": enclosed_volume(mesh), "particle_volume_m3": len(p) * lattice.spacing**3,
+            "smoothing_iterations": job.mesh_smoothing, "seconds": time.perf_counter() - start}
 
 
 def _top(source: Source, particles: Particles) -> Terrain:

@@ -4,9 +4,15 @@ Each particle is emitted, moved (``physics``), detaches and deposits at every im
 at the domain's edge (its load is lost), when it has settled, or at the end of its lifetime
 (it then leaves its load where it is). Particles are traced in parallel (``prange``) against
 a terrain frozen for the batch; what each does to the terrain is recorded as impact events
-(x, y, Q) in its own row, so the caller applies them in particle order and the result does not
-depend on the number of threads. Each particle draws its random numbers from its own stream,
-keyed by (seed, iteration, particle index).
+(x, y, z, Q) in its own row, so the caller applies them in particle order and the result does
+not depend on the number of threads. Each particle draws its random numbers from its own
+stream, keyed by (seed, iteration, particle index).
+
+The motion is one code path for every representation; only the ground queries (003 §4: is the
+particle in the ground, where did its step enter it, the surface point and normal there, the
+material) dispatch on the ground kind: ``HEIGHTFIELD`` (a height h(x, y): heightfields and
+layered terrains) or ``VOXELS`` (a trilinear level f(x, y, z) > 0 in the ground, ``voxel_kernels``).
+A ground value ``g`` follows the particle: the height under it on a heightfield, f at it on voxels.
 """
 
 from __future__ import annotations
@@ -18,10 +24,13 @@ import numpy as np
 
 from unerode_cli.particles import physics as ph
 from unerode_cli.particles import terrain_kernels as tk
+from unerode_cli.particles import voxel_kernels as vk
 from unerode_cli.particles.emission import RAIN
 from unerode_cli.particles.medium import MEANDER, NONE, UNIFORM
 
 SETTLED, EDGE, EXPIRED = 0, 1, 2
+#: Ground kinds of the tracer (``TracingSnapshot.kind``).
+HEIGHTFIELD, VOXELS = 0, 1
 #: Columns of the per-particle budget: volumes (m³) carried in at emission, detached,
 #: deposited (impacts and death), lost at the edge, kept in suspension at death, and the part
 #: of the deposit left where the particle died.
@@ -103,6 +112,62 @@ def _emit(state, h, dx, dy, phys, ekind, ecdf, ecells, epts, espread):
 
 
 @numba.njit(cache=True, inline="always")
+def _ground(gkind, h, vol, z0, dz, col, row, z):
+    """The ground value at grid coordinates (col, row) and elevation z (m): the height (m) of a
+    heightfield, the level f of voxels (> 0 in the ground)."""
+    if gkind == HEIGHTFIELD:
+        return tk.height_at(h, col, row)
+    return vk.level_at(vol, col, row, (z - z0) / dz - 0.5)
+
+
+@numba.njit(cache=True, inline="always")
+def _in_ground(gkind, g, z):
+    """Whether a particle at elevation z (m) with ground value g is on or in the ground."""
+    if gkind == HEIGHTFIELD:
+        return z <= g
+    return g >= 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _entry(gkind, g0, z0, g1, z1):
+    """Fraction of a step from (ground value g0, elevation z0) to (g1, z1) at which the particle
+    enters the ground (the ground values interpolated linearly along the step), or −1 when it
+    does not enter it (it did not start strictly above it or did not end strictly in it)."""
+    if gkind == HEIGHTFIELD:
+        above = z0 - g0
+        if above > 0.0 and g1 > z1:
+            return above / (above + g1 - z1)
+        return -1.0
+    if g0 < 0.0 and g1 > 0.0:
+        return g0 / (g0 - g1)
+    return -1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _onto(gkind, h, vol, x, y, z, g, dx, dy, dz, z0):
+    """The surface point of a particle at (x, y, z) (m) with ground value g and the ground's
+    unit outward normal there: straight up onto a heightfield, along ∇f onto the voxels' f = 0
+    level (003 §4: intersection and normal). Returns (x, y, z, g, n_x, n_y, n_z)."""
+    if gkind == HEIGHTFIELD:
+        nx_, ny_, nz_ = tk.normal_at(h, x / dx, y / dy, dx, dy)
+        return x, y, g, g, nx_, ny_, nz_
+    x, y, z, nx_, ny_, nz_ = vk.project(vol, x, y, z, dx, dy, dz, z0)
+    return x, y, z, 0.0, nx_, ny_, nz_
+
+
+@numba.njit(cache=True, inline="always")
+def _down_onto(gkind, h, vol, x, y, z, g, dx, dy, dz, z0):
+    """After a step cut where it meets the ground: a particle left above the surface (the
+    interpolation of the cut is linear) is put onto it, one in the ground stays there (the
+    impact puts it onto the surface). Returns (x, y, z, g)."""
+    if gkind == HEIGHTFIELD:
+        return x, y, min(z, g), g
+    if g < 0.0:
+        x, y, z, g, _, _, _ = _onto(gkind, h, vol, x, y, z, g, dx, dy, dz, z0)
+    return x, y, z, g
+
+
+@numba.njit(cache=True, inline="always")
 def _record(path, n, stride_hit, x, y, z, t, dx, dy):
     """Append (column, row, z, t) to a path buffer when ``stride_hit``; returns the new length.
     A full buffer keeps its last slot for the final point."""
@@ -115,13 +180,20 @@ def _record(path, n, stride_hit, x, y, z, t, dx, dy):
 
 @numba.njit(cache=True)
 def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
+                   gkind, vol, vmat, z0, dz,
                    fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
                    events, budget, path, path_stride):
     """Trace particle ``index`` of ``iteration`` from emission to death on the frozen terrain.
 
-    Writes its impacts (x, y, Q in m, m, m³; Q > 0 deposits) into ``events`` while there is
-    room (the count goes on), its volumes into ``budget`` (columns ``B_*``) and, when ``path``
-    has rows, its path (column, row, z m, t s) every ``path_stride`` steps and at death.
+    The ground: ``gkind`` ``HEIGHTFIELD`` reads the height ``h`` and the material index ``mat``
+    per cell; ``VOXELS`` reads the level ``vol`` (float32[rows, columns, layers], layer k's
+    centre at z0 + (k + ½)·dz m) and the material index ``vmat`` per voxel (empty: material 0),
+    ``h`` being then its top surface (where particles are emitted) and a particle below z0
+    leaving the domain. ``keps``, ``tauc``: K_ε and τ_c of each material (003 Eq. 2).
+
+    Writes its impacts (x, y, z, Q in m, m, m, m³; Q > 0 deposits) into ``events`` while there
+    is room (the count goes on), its volumes into ``budget`` (columns ``B_*``) and, when
+    ``path`` has rows, its path (column, row, z m, t s) every ``path_stride`` steps and at death.
 
     Returns (number of events, radius R (m), fate, number of impacts, path length).
     """
@@ -148,7 +220,7 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
     c_max = phys[ph.P_CAPACITY] * half
     load = phys[ph.P_INITIAL_LOAD] * c_max
     budget[B_EMITTED] = load
-    max_move = 0.5 * min(dx, dy)
+    max_move = 0.5 * min(dx, dy, dz)
     t = 0.0
     dt = phys[ph.P_DT]
     step = 0
@@ -157,24 +229,32 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
     fate = EXPIRED
     n_path = _record(path, 0, True, x, y, z, t, dx, dy)
     col, row = x / dx, y / dy  # grid coordinates of (x, y), kept along with them
-    ground = tk.height_at(h, col, row)
+    ground = _ground(gkind, h, vol, z0, dz, col, row, z)
+    touching = False  # the last step was cut where it met the ground
     sliding = False
     nxn, nyn, nzn = 0.0, 0.0, 1.0
     tau_memo, dt_memo, phi1, phi2 = -1.0, -1.0, 0.0, 0.0
     while True:
         c = min(max(int(round(col)), 0), nx - 1)
         r = min(max(int(round(row)), 0), ny - 1)
-        if col < -0.5 or col > nx - 0.5 or row < -0.5 or row > ny - 0.5 or not valid[r, c]:
+        if col < -0.5 or col > nx - 0.5 or row < -0.5 or row > ny - 0.5 or not valid[r, c] or z < z0:
             fate = EDGE
             break
-        if z <= ground:  # impact: detachment and deposition (003 Eq. 1–4), then the bounce
+        if touching or _in_ground(gkind, ground, z):
+            # impact: onto the surface, detachment and deposition (003 Eq. 1–4), then the bounce
+            touching = False
             impacts += 1
-            medium = 1 if ground < sea else 0
+            x, y, z, ground, nxn, nyn, nzn = _onto(gkind, h, vol, x, y, z, ground, dx, dy, dz, z0)
+            col, row = x / dx, y / dy
+            medium = 1 if z < sea else 0
             w_s = settle2[medium] * ph.hindered(load, c_max, n_hind)
             q_dep = min(ph.deposition(w_s, omega, half), load)
             speed = math.sqrt(vx * vx + vy * vy + vz * vz)
             tau = ph.shear_stress(speed, shear_k, shear_l)
-            m = mat[r, c]
+            if gkind == HEIGHTFIELD:
+                m = mat[r, c]
+            else:
+                m = vk.material_at(vmat, x, y, z, nxn, nyn, nzn, dx, dy, dz, z0)
             q_det = ph.detachment(tau, keps[m], tauc[m], exponent, half)
             q_det = min(q_det, max(0.0, c_max - (load - q_dep)))
             load = load - q_dep + q_det
@@ -182,13 +262,12 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
             budget[B_DEPOSITED] += q_dep
             if q_dep != q_det:
                 if count < events.shape[0]:
-                    events[count, 0], events[count, 1], events[count, 2] = x, y, q_dep - q_det
+                    events[count, 0], events[count, 1], events[count, 2] = x, y, z
+                    events[count, 3] = q_dep - q_det
                 count += 1
-            nxn, nyn, nzn = tk.normal_at(h, col, row, dx, dy)
             # resting contact below twice the normal speed the weight added in the last step
             stick = stick2[medium] * dt
             vx, vy, vz, sliding = ph.bounce(vx, vy, vz, nxn, nyn, nzn, restitution, stick)
-            z = ground
             if math.sqrt(vx * vx + vy * vy + vz * vz) < rest_speed:
                 fate = SETTLED
                 break
@@ -211,18 +290,21 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
             phi1, phi2 = ph.drag_factors(tau_s, dt)
         x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, phi1, phi2, sea,
                                           fkind, fmedium, fscal, fbands, dx, dy, alpha)
-        above = z - ground
         col, row = x1 / dx, y1 / dy
-        ground = tk.height_at(h, col, row)
-        if above > 0.0 and ground > z1:  # end the step where it meets the ground (no tunnelling)
-            dt *= above / (above + ground - z1)
+        ground1 = _ground(gkind, h, vol, z0, dz, col, row, z1)
+        frac = _entry(gkind, ground, z, ground1, z1)
+        if frac >= 0.0:  # end the step where it meets the ground (no tunnelling)
+            dt *= frac
             tau_memo, dt_memo = tau_s, dt
             phi1, phi2 = ph.drag_factors(tau_s, dt)
             x1, y1, z1, vx1, vy1, vz1 = _move(x, y, z, vx, vy, vz, ax, ay, az, tau_s, dt, phi1, phi2, sea,
                                               fkind, fmedium, fscal, fbands, dx, dy, alpha)
             col, row = x1 / dx, y1 / dy
-            ground = tk.height_at(h, col, row)
-            z1 = min(z1, ground)
+            ground1 = _ground(gkind, h, vol, z0, dz, col, row, z1)
+            x1, y1, z1, ground1 = _down_onto(gkind, h, vol, x1, y1, z1, ground1, dx, dy, dz, z0)
+            col, row = x1 / dx, y1 / dy
+            touching = True
+        ground = ground1
         vx, vy, vz = vx1, vy1, vz1
         x, y, z = x1, y1, z1
         t += dt
@@ -238,7 +320,7 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
             budget[B_DEPOSITED] += put
             budget[B_DROPPED] = put
             if count < events.shape[0]:
-                events[count, 0], events[count, 1], events[count, 2] = x, y, put
+                events[count, 0], events[count, 1], events[count, 2], events[count, 3] = x, y, z, put
             count += 1
     if step % path_stride != 0:
         n_path = _record(path, n_path, True, x, y, z, t, dx, dy)
@@ -247,12 +329,13 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
 
 @numba.njit(cache=True, parallel=True)
 def trace_batch(indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
-                fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
+                gkind, vol, vmat, z0, dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
                 events, path_slot, path_buf, path_stride):
-    """Trace the particles ``indices`` (int64[n], indices within ``iteration``) in parallel.
+    """Trace the particles ``indices`` (int64[n], indices within ``iteration``) in parallel
+    (the terrain's arguments are those of ``trace_particle``).
 
     Args:
-        events: float64[≥ n, capacity, 3] buffer (its content is overwritten; the caller keeps
+        events: float64[≥ n, capacity, 4] buffer (its content is overwritten; the caller keeps
             it from batch to batch) for the events of particle i in row i; a particle with
             more than ``capacity`` events reports its full count, and the caller traces it
             again with a larger buffer (the result is the same: the terrain is frozen and the
@@ -277,7 +360,7 @@ def trace_batch(indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, d
         path = path_buf[slot] if slot >= 0 else no_path
         count, radius, fate, n_imp, n_path = trace_particle(
             indices[i], iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
-            fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
+            gkind, vol, vmat, z0, dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
             events[i], budget[i], path, path_stride)
         counts[i] = count
         radii[i] = radius
@@ -290,13 +373,14 @@ def trace_batch(indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, d
 
 @numba.njit(cache=True)
 def flatten(events, counts, radii, retraced_row, retraced_events):
-    """Events of a batch in particle order as columns (x, y, Q, R): float64[Σ counts, 4].
+    """Events of a batch in particle order as columns (x, y, z, Q, R): float64[Σ counts, 5].
     ``retraced_row[i]`` ≥ 0 takes particle i's events from that row of ``retraced_events``."""
-    out = np.empty((counts.sum(), 4))
+    out = np.empty((counts.sum(), 5))
     k = 0
     for i in range(counts.size):
         src = events[i] if retraced_row[i] < 0 else retraced_events[retraced_row[i]]
         for j in range(counts[i]):
-            out[k, 0], out[k, 1], out[k, 2], out[k, 3] = src[j, 0], src[j, 1], src[j, 2], radii[i]
+            out[k, 0], out[k, 1], out[k, 2], out[k, 3] = src[j, 0], src[j, 1], src[j, 2], src[j, 3]
+            out[k, 4] = radii[i]
             k += 1
     return out

@@ -1,11 +1,16 @@
 """Presets of particle erosion from 003 Table 1 and §5, every value overridable. No numba here.
 
-Table 1 gives R in cells (turned into metres with the grid's cell size here), the coefficient
-of restitution, ρ_p, the capacity factor, the erosion factor ε (K_ε here) and the deposition
-factor ω, particles per iteration and iterations. It gives no absolute volume scale, so the
-presets set ``strength`` = 0.01: a rain particle (R = 1 cell) then carries at most
-10 × 0.01 × 2π/3 ≈ 0.2 cell volumes (cell size³). Departures from the table are said in
-each preset's note.
+Table 1 gives R in cells or voxels (turned into metres with the grid's cell or voxel size
+here), the coefficient of restitution, ρ_p, the capacity factor, the erosion factor ε (K_ε
+here) and the deposition factor ω, particles per iteration and iterations, and the terrain
+representation. It gives no absolute volume scale, so the presets set ``strength`` = 0.01: a
+rain particle (R = 1 cell) then carries at most 10 × 0.01 × 2π/3 ≈ 0.2 cell volumes (cell
+size³). Departures from the table are said in each preset's note.
+
+Representations: ``representation`` is what a preset runs on by default. The presets that
+also work on heightfields keep them as default (coastal, wind and volcano ran on density voxels
+in 003: ``paper_representation``); karst and tunnel, whose caves only a 3D terrain holds, run
+on binary and density voxels.
 """
 
 from __future__ import annotations
@@ -18,6 +23,10 @@ from unerode_cli.particles.parameters import ParticleParams, param_names
 
 #: Volume scale of the presets (see the module docstring).
 PRESET_STRENGTH = 0.01
+#: Terrain representations: the 2.5D ones, and the voxel ones (003 §4.4).
+SURFACE_REPRESENTATIONS = ("heightfield", "layers")
+VOXEL_REPRESENTATIONS = ("density", "binary")
+REPRESENTATIONS = SURFACE_REPRESENTATIONS + VOXEL_REPRESENTATIONS
 
 
 @dataclass(frozen=True)
@@ -36,6 +45,11 @@ class Preset:
         field_medium: where that field acts: "both", "air" or "water".
         values: other ``ParticleParams`` fields.
         note: departures from 003 and what the user must supply.
+        rain_below_sea: rain emission starts over the cells whose ground is below the sea level
+            (the sea, or groundwater under a water table) unless a rain mask is given.
+        representation: the terrain it runs on by default: "heightfield", "density" or "binary".
+        paper_representation: the one of 003 Table 1 ("heightfield", "density", "binary" or
+            "implicit").
     """
 
     name: str
@@ -49,6 +63,9 @@ class Preset:
     field: str = "none"
     field_medium: str = "both"
     note: str = ""
+    rain_below_sea: bool = False
+    representation: str = "heightfield"
+    paper_representation: str = "heightfield"
 
     def params(self, cell_size: float, **overrides: float) -> ParticleParams:
         """``ParticleParams`` of this preset on cells of ``cell_size`` (m), with ``overrides``
@@ -84,14 +101,17 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in (
     Preset("coastal", "waves corroding a coast: big particles pushed towards it (003 Table 1 Coastal)",
            5.0, 80, 3, "rain",
            _table(restitution=0.1, density=500.0, capacity=10.0, k_eps=5.0, omega=0.5, keep_suspended=1.0),
-           field="uniform, towards the coast", field_medium="water",
-           note="mask the rain to the sea and give a sea level; dissolved matter stays suspended "
-                "(removed by design: 003 §5 corrosion without mass conservation)"),
+           field="uniform, towards the coast", field_medium="water", rain_below_sea=True,
+           paper_representation="density",
+           note="give a sea level (particles start over the cells below it unless --rain-mask says "
+                "otherwise); dissolved matter stays suspended (removed by design: 003 §5 corrosion "
+                "without mass conservation); overhangs need --representation density (003's)"),
     Preset("wind", "light particles carried by the wind, dunes and rock blasting (003 Table 1 Wind)",
            1.5, 100, 10, "rain",
            _table(restitution=0.9, density=1.5, capacity=1.0, k_eps=1.0, omega=1.0, drop_height=1.0),
-           field="wind (uniform or a raster)", field_medium="air",
-           note="particles start 1 m above the ground (they are blown, not dropped)"),
+           field="wind (uniform or a raster)", field_medium="air", paper_representation="density",
+           note="particles start 1 m above the ground (they are blown, not dropped); 003 weathered "
+                "rock columns on density voxels (--representation density, 0.2 m voxels)"),
     Preset("underwater", "currents eroding a sea floor (003 Table 1 Underwater)",
            2.5, 100, 50, "rain",
            _table(restitution=0.9, density=1000.0, capacity=1.0, k_eps=1.0, omega=1.0),
@@ -100,9 +120,24 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in (
     Preset("volcano", "a vent emitting loaded particles: the terrain gains mass (003 Table 1 Volcano)",
            1.0, 150, 30, "source",
            _table(restitution=0.5, density=2000.0, capacity=1.0, k_eps=1.0, omega=5.0, initial_load=0.1),
+           paper_representation="density",
            note="give the vent; particles start loaded at 10 % of C_max (003 §5), "
                 "added matter is the budget's 'emitted'; Table 1 prints COR = 5.0, which would create "
                 "energy at every bounce: read as 0.5"),
+    Preset("karst", "water dissolving a cave network that follows the softest layer (003 Table 1 Karst)",
+           5.0, 1000, 40, "rain",
+           _table(restitution=0.5, density=500.0, capacity=10.0, k_eps=5.0, omega=0.5, keep_suspended=1.0),
+           field="uniform, along the water table", field_medium="water", rain_below_sea=True,
+           representation="binary", paper_representation="binary",
+           note="give the water table as --sea-level and 3D layers (--materials); particles lighter than "
+                "water float along it into the rock; dissolved matter stays suspended (removed by design, "
+                "003 §5)"),
+    Preset("tunnel", "runoff from a source drilling a tunnel through rock (003 Table 1 Tunnel)",
+           2.5, 100, 100, "source",
+           _table(restitution=0.1, density=500.0, capacity=1.0, k_eps=1.0, omega=1.0, keep_suspended=1.0),
+           representation="density", paper_representation="density",
+           note="give the source; the runoff carries what it dissolves away (kept suspended: 003 gives "
+                "no place where it settles)"),
 )})
 
 

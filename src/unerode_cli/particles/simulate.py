@@ -162,13 +162,15 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
 
     Each iteration emits ``emission.count`` particles, traces all of them against the terrain
     as it stands (frozen during the iteration), then applies their impacts in particle order:
-    003 Eq. 9 on a heightfield, Eq. 10 on layered terrains. Particles die at the domain's edge
+    003 Eq. 9 on a heightfield, Eq. 10 on layered terrains, Eq. 13 on density voxels and Eq. 14
+    on binary voxels. Particles die at the domain's edge
     (their load is lost), when settled (speed < ``rest_speed`` on the ground) or after their
     ``lifetime``; a dying particle deposits its load where it is, but for the fraction
     ``keep_suspended``.
 
     Args:
-        terrain: a ``HeightfieldTerrain`` or ``LayeredTerrain``; not modified.
+        terrain: a ``HeightfieldTerrain``, ``LayeredTerrain``, ``DensityTerrain`` or
+            ``BinaryTerrain``; not modified.
         params: physical parameters (``ParticleParams``; ``presets.preset_params`` builds them
             from 003 Table 1). ``k_eps`` and ``tau_c`` are the heightfield's material.
         emission: where and how many particles start per iteration.
@@ -205,7 +207,7 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
     chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
     work = terrain.copy()
     capacity = 32
-    buffer = np.empty((0, 0, 3))  # event rows of a batch, kept from batch to batch
+    buffer = np.empty((0, 0, 4))  # event rows of a batch, kept from batch to batch
     sums: list[list[float]] = [[] for _ in range(kernels.N_BUDGET)]
     impacts = 0
     fate_counts = np.zeros(3, np.int64)
@@ -213,7 +215,8 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
     for iteration in range(iterations):
         snap = work.tracing_snapshot(default)
         frozen = (snap.surface, grid.valid, snap.material, snap.k_eps, snap.tau_c, grid.dx, grid.dy,
-                  fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, float(emission.spread), ev0)
+                  *snap.ground_arguments(), fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts,
+                  float(emission.spread), ev0)
         for start, stop in _batches(count, first=PILOT if iteration == 0 else BATCH):
             indices = np.arange(start, stop, dtype=np.int64)
             numbers = iteration * count + indices
@@ -222,20 +225,20 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
             slot[picked] = np.arange(picked.sum())
             path_buf = np.zeros((int(picked.sum()), MAX_PATH_POINTS, 4))
             if buffer.shape[0] < indices.size or buffer.shape[1] < capacity:
-                buffer = np.empty((max(buffer.shape[0], indices.size), max(buffer.shape[1], capacity), 3))
+                buffer = np.empty((max(buffer.shape[0], indices.size), max(buffer.shape[1], capacity), 4))
             events, counts, radii, fates, n_imp, budget, path_len = kernels.trace_batch(
                 indices, iteration, seed, phys, *frozen, buffer[: indices.size], slot, path_buf, path_stride)
             over = np.flatnonzero(counts > buffer.shape[1])
             retraced_row = np.full(indices.size, -1, np.int64)
-            retraced = np.zeros((0, 1, 3))
+            retraced = np.zeros((0, 1, 4))
             if over.size:
-                larger = np.empty((over.size, int(counts[over].max()), 3))
+                larger = np.empty((over.size, int(counts[over].max()), 4))
                 retraced = kernels.trace_batch(indices[over], iteration, seed, phys, *frozen, larger,
                                                np.full(over.size, -1, np.int64), np.zeros((0, 1, 4)),
                                                path_stride)[0]
                 retraced_row[over] = np.arange(over.size)
             flat = kernels.flatten(events, counts, radii, retraced_row, retraced)
-            work.apply(*(np.ascontiguousarray(flat[:, k]) for k in range(4)))
+            work.apply(*(np.ascontiguousarray(flat[:, k]) for k in range(5)))
             capacity = int(min(1024, max(16, 2 ** math.ceil(math.log2(max(1.0, np.percentile(counts, 90)))))))
             for k in range(kernels.N_BUDGET):
                 sums[k].append(math.fsum(budget[:, k]))

@@ -3,18 +3,20 @@
 003 §4: a representation is eligible when one can (1) tell whether a particle intersects the
 ground, (2) get the ground's normal there, and (3) apply a change Q at a point. ``Terrain``
 holds those three; ``HeightfieldTerrain`` (003 §4.1) and ``LayeredTerrain`` (003 §4.2, material
-stacks) implement them. Both are heightfields of their ground surface, so the particle tracer
-reads a frozen surface snapshot (``tracing_snapshot``); a voxel or implicit terrain would bring
-its own intersection kernel. The numba kernels are imported on first use.
+stacks) implement them here, the voxel terrains (003 §4.4) in ``voxel_terrain``. The tracer
+reads a frozen snapshot of the ground (``tracing_snapshot``): a heightfield of the ground
+surface, or a voxel level, whose kind tells the tracer's ground queries which to read. The
+numba kernels are imported on first use.
 
 Coordinates are those of ``terrain_kernels``: x = column·dx (m), y = row·dy (m), z up (m).
 """
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,15 +36,31 @@ class Material:
             raise ValueError(f"material {self.name!r} needs finite K_ε ≥ 0 and τ_c ≥ 0")
 
 
+#: Ground kinds of a snapshot (``kernels.HEIGHTFIELD``, ``kernels.VOXELS``).
+HEIGHTFIELD_KIND, VOXELS_KIND = 0, 1
+
+
 @dataclass(frozen=True)
 class TracingSnapshot:
-    """What the tracer reads, frozen for a batch: ground height (m, nodata filled), surface
-    material index per cell, and the materials' K_ε (Pa^-a) and τ_c (Pa)."""
+    """What the tracer reads, frozen for a batch: the ground height (m, nodata filled; on voxel
+    terrains their top surface, where particles are emitted), the surface material index per
+    cell, the materials' K_ε (Pa^-a) and τ_c (Pa), and for ``kind`` ``VOXELS_KIND`` the voxel
+    level ``volume`` (float32[rows, columns, layers], > 0 in the ground, layer k's centre at
+    z0 + (k + ½)·dz m) and its material index ``volume_material`` (int16, empty: material 0)."""
 
     surface: np.ndarray
     material: np.ndarray
     k_eps: np.ndarray
     tau_c: np.ndarray
+    kind: int = HEIGHTFIELD_KIND
+    volume: np.ndarray = field(default_factory=lambda: np.zeros((1, 1, 1), np.float32))
+    volume_material: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0), np.int16))
+    z0: float = -math.inf
+    dz: float = math.inf
+
+    def ground_arguments(self) -> tuple[int, np.ndarray, np.ndarray, float, float]:
+        """(kind, volume, volume material, z0, dz) of ``kernels.trace_batch``."""
+        return self.kind, self.volume, self.volume_material, float(self.z0), float(self.dz)
 
 
 class Terrain(ABC):
@@ -59,12 +77,18 @@ class Terrain(ABC):
         """The frozen state the tracer reads; ``default``: the material of a terrain without one."""
 
     @abstractmethod
-    def apply(self, x: np.ndarray, y: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
-        """Apply changes Q (m³; > 0 deposits) at points (x, y) (m) with radii R (m), in order."""
+    def apply(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
+        """Apply changes Q (m³; > 0 deposits) at points (x, y, z) (m) with radii R (m), in order
+        (a heightfield's change does not depend on z)."""
 
     @abstractmethod
     def copy(self) -> Terrain:
         """An independent copy (``run`` never alters the terrain it is given)."""
+
+    def matter(self) -> float:
+        """Volume of the ground (m³) above an arbitrary datum: what deposits add to and
+        detachment takes from (on a heightfield Σ h·cell area over the domain)."""
+        return math.fsum(self.surface()[self.grid.valid]) * self.grid.cell_area
 
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Intersection test: how deep points float64[n, 3] (x, y, z in m) are below the ground
@@ -75,11 +99,12 @@ class Terrain(ABC):
         h = self.tracing_snapshot(Material("default", 0.0)).surface
         return tk.heights(h, p[:, 0].copy(), p[:, 1].copy(), self.grid.dx, self.grid.dy) - p[:, 2]
 
-    def normal(self, xy: np.ndarray) -> np.ndarray:
-        """Unit upward normals float64[n, 3] of the ground at points float64[n, 2] (x, y in m)."""
+    def normal(self, points: np.ndarray) -> np.ndarray:
+        """Unit outward normals float64[n, 3] of the ground at points float64[n, 2 or 3] (x, y
+        and, for 3D terrains, z in m; on a heightfield at the surface above or below (x, y))."""
         from unerode_cli.particles import terrain_kernels as tk
 
-        p = np.ascontiguousarray(xy, dtype=np.float64)
+        p = np.ascontiguousarray(points, dtype=np.float64)
         h = self.tracing_snapshot(Material("default", 0.0)).surface
         return tk.normals(h, p[:, 0].copy(), p[:, 1].copy(), self.grid.dx, self.grid.dy)
 
@@ -122,7 +147,7 @@ class HeightfieldTerrain(Terrain):
             np.array([default.tau_c]),
         )
 
-    def apply(self, x: np.ndarray, y: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
+    def apply(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
         import numba
 
         from unerode_cli.particles import terrain_kernels as tk
@@ -209,7 +234,7 @@ class LayeredTerrain(Terrain):
             np.array([m.tau_c for m in self.materials]),
         )
 
-    def apply(self, x: np.ndarray, y: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
+    def apply(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
         from unerode_cli.particles import terrain_kernels as tk
 
         tk.apply_layered(self._base, self._thickness, self.grid.valid, self._thickness.shape[0] - 1,

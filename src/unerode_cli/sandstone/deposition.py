@@ -17,10 +17,19 @@ Every cell has one receiver, where an eroded particle in it goes next:
   side neighbours, at random (beyond the grid's side: exported); with none (buried), the cell
   above.
 
-002 says "downward" and builds these receivers from the water's in its §6; water comes with
-the fluvial part, so here they follow gravity only: straight down, then downslope. 8
-neighbours, not 4, so that a pile's flank keeps one angle all around: with 4, a slope along a
-diagonal would stand at atan(√2 tan θ).
+002 §7 starts these pointers at the water's receivers of §6.2 (``water_receivers``, after
+depression routing). Off the surface they are the same rule (empty cells fall, ceilings drop,
+walls shed sideways at random); on the surface a grain follows gravity only, for these reasons:
+- it leaves a cell only toward a neighbour lower by more than the angle of repose, and among
+  8 neighbours, not 4, so that a pile's flank keeps one angle all around (with the water's 4,
+  a slope along a diagonal would stand at atan(√2 tan θ));
+- heights are fills counted in particles, which resolve an eighth of a cell, where the water's
+  proxy, the highest particle, stands up to half a cell above a partly filled cell's fill;
+- the deposition grid moves by a random offset every frame (002 §7, below), the water's grid
+  does not, so the water's receivers are not those of the cells a grain is counted in;
+- depression routing changes nothing for a grain: a pit (no lower neighbour) is stable, so
+  its pointer stops there before the rerouted link to the pass, and a sealed cavity keeps
+  what falls into it.
 
 Moves from a surface cell go to a strictly lower one, so the chains end (at a stable cell, or
 the export sink); pointer jumping p(c) ← p(p(c)) for ⌈log₂ n⌉ rounds over the n surface cells
@@ -51,14 +60,16 @@ import numba
 import numpy as np
 
 from unerode_cli.sandstone.grid3d import Grid3D
+from unerode_cli.sandstone.hashing import (
+    DRAW_OFFSET_X,
+    DRAW_OFFSET_Y,
+    DRAW_RECEIVER,
+    DRAW_WALL,
+    DRAW_X,
+    DRAW_Y,
+    uniform,
+)
 
-# splitmix64 (Steele, Lea & Flood 2014): the increment and the finaliser's constants
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
-_M1 = np.uint64(0xBF58476D1CE4E5B9)
-_M2 = np.uint64(0x94D049BB133111EB)
-_TWO_M53 = 1.0 / 9007199254740992.0
-# what each random draw is for (the last key of the hash)
-_DRAW_OFFSET_X, _DRAW_OFFSET_Y, _DRAW_RECEIVER, _DRAW_WALL, _DRAW_X, _DRAW_Y = 0, 1, 2, 3, 4, 5
 #: The 8 horizontal neighbours (di, dj) and their distances in cells.
 _NEIGHBOURS = np.array([(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)],
                        dtype=np.int64)
@@ -99,7 +110,7 @@ def offset_grid(grid: Grid3D, seed: int, frame: int) -> Grid3D:
     """``grid`` moved horizontally by a random fraction of a cell for ``frame`` (002 §7) and
     grown by one cell along x and y, so that it still covers ``grid``; the ground stays at
     the same height."""
-    u = np.array([_uniform(seed, frame, 0, _DRAW_OFFSET_X), _uniform(seed, frame, 0, _DRAW_OFFSET_Y)])
+    u = np.array([uniform(seed, frame, 0, DRAW_OFFSET_X), uniform(seed, frame, 0, DRAW_OFFSET_Y)])
     x, y, z = grid.origin
     nx, ny, nz = grid.shape
     return Grid3D((x - u[0] * grid.h, y - u[1] * grid.h, z), grid.h, (nx + 1, ny + 1, nz))
@@ -159,24 +170,6 @@ def _rank_within(values: np.ndarray) -> np.ndarray:
         group_start = np.maximum.accumulate(np.where(first, np.arange(values.size), 0))
         rank[order] = np.arange(values.size) - group_start
     return rank
-
-
-@numba.njit(cache=True, inline="always")
-def _mix64(z):
-    """The splitmix64 finaliser: a bijective 64-bit hash."""
-    z = (z ^ (z >> np.uint64(30))) * _M1
-    z = (z ^ (z >> np.uint64(27))) * _M2
-    return z ^ (z >> np.uint64(31))
-
-
-@numba.njit(cache=True)
-def _uniform(seed, frame, index, draw):
-    """A uniform number in [0, 1) keyed by (seed, frame, index, draw), all ≥ 0."""
-    z = _mix64(np.uint64(seed) + _GOLDEN)
-    z = _mix64(z ^ (np.uint64(frame) * _GOLDEN + _M1))
-    z = _mix64(z ^ (np.uint64(index) * _GOLDEN + _M2))
-    z = _mix64(z ^ (np.uint64(draw) * _GOLDEN))
-    return float(z >> np.uint64(11)) * _TWO_M53
 
 
 @numba.njit(cache=True, inline="always")
@@ -274,7 +267,7 @@ def _site_receivers(occupancy, column_start, site_k, ground, h, per_cell, tan_re
                     total += slope
             receiver[s] = s
             if total > 0.0:
-                pick = _uniform(seed, frame, s, _DRAW_RECEIVER) * total
+                pick = uniform(seed, frame, s, DRAW_RECEIVER) * total
                 for n in range(neighbours.shape[0]):
                     if slopes[n] > 0.0:
                         receiver[s] = targets[n]  # the last one if rounding leaves pick ≥ 0
@@ -336,7 +329,7 @@ def _entry_sites(eroded, origin, h, occupancy, column_start, site_k, seed, frame
             if options == 0:  # buried: the cell above
                 k += 1
                 continue
-            pick = int(_uniform(seed, frame, (i * ny + j) * nz + k, _DRAW_WALL) * options)
+            pick = int(uniform(seed, frame, (i * ny + j) * nz + k, DRAW_WALL) * options)
             for d in range(4):
                 a, b = i + _SIDES[d, 0], j + _SIDES[d, 1]
                 if a < 0 or b < 0 or a >= nx or b >= ny or occupancy[a, b, k] == 0:
@@ -368,6 +361,6 @@ def _place(kept, target, rank, occupancy, column_start, site_k, origin, ground, 
                 hi = mid
         i, j = lo // ny, lo % ny
         p = kept[t]
-        out[t, 0] = origin[0] + (i + _uniform(seed, frame, p, _DRAW_X)) * h
-        out[t, 1] = origin[1] + (j + _uniform(seed, frame, p, _DRAW_Y)) * h
+        out[t, 0] = origin[0] + (i + uniform(seed, frame, p, DRAW_X)) * h
+        out[t, 1] = origin[1] + (j + uniform(seed, frame, p, DRAW_Y)) * h
         out[t, 2] = _height(occupancy, i, j, site_k[s], ground, h, per_cell) + (rank[t] + 0.5) * h / per_cell

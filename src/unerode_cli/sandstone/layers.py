@@ -7,7 +7,9 @@ Units (SI; times in years): erodibilities k_w, k_s in 1/y (002 Eq. 1–2: b drop
 so W and F are dimensionless rates); the interlocking threshold I in Pa, compared with the
 compressive stress −tr σ (compression positive; 002 Eq. 2 writes trace(σ) > I, which only makes
 sense with compression counted positive); the abrasion coefficient k_a in s²/m² (W_a = k_a‖v‖(−n·v)₊,
-002 Eq. 8, dimensionless); the deflation coefficient k_d dimensionless (002 Eq. 12).
+002 Eq. 8, dimensionless); the deflation coefficient k_d dimensionless (002 Eq. 12); the fluvial
+coefficient k_t in 1/Pa and the critical shear stress τ_c in Pa (002 Eq. 14, Table 1, used as
+printed: ``fluvial`` says why).
 
 002 Table 1 gives k_a and k_d both in m⁻²s⁻², which cannot both be right (Eq. 8 and Eq. 12 then
 have different dimensions), and with Table 2's k_w = 1e-4 /y and Δt = 1000 y its values would
@@ -44,7 +46,8 @@ class Layer:
 
     Attributes (units): ``k_w``, ``k_s`` weak and interlocked erodibility (1/y, 002 Eq. 2);
     ``interlocking`` the threshold I on −tr σ (Pa); ``k_a`` abrasion (s²/m², 002 Eq. 8);
-    ``k_d`` deflation (dimensionless, 002 Eq. 12).
+    ``k_d`` deflation (dimensionless, 002 Eq. 12); ``k_t`` fluvial erosion (1/Pa, 002 Eq. 14; 0:
+    water does not erode the layer) and ``tau_c`` its critical shear stress (Pa).
     """
 
     top: float = math.inf
@@ -53,6 +56,8 @@ class Layer:
     interlocking: float = 3e6
     k_a: float = 1e-5 * ABRASION_SCALE
     k_d: float = 1e-7 * DEFLATION_SCALE
+    k_t: float = 0.0
+    tau_c: float = 5.0
     name: str = ""
 
 
@@ -136,6 +141,10 @@ LAYER_PARAMETERS: tuple[ParamSpec, ...] = (
               f"{ABRASION_SCALE:g}); replaces every layer's", minimum=0.0),
     ParamSpec("k_d", "1", Layer.k_d, "wind deflation coefficient k_d (002 Eq. 12; Table 1 × "
               f"{DEFLATION_SCALE:g}); replaces every layer's", minimum=0.0),
+    ParamSpec("k_t", "1/Pa", Layer.k_t, "fluvial erosion coefficient k_t (002 Eq. 14, Table 1: 1e2-8e2; "
+              "0: no fluvial erosion); replaces every layer's", minimum=0.0),
+    ParamSpec("tau_c", "Pa", Layer.tau_c, "critical shear stress τ_c of fluvial erosion (002 Eq. 14, "
+              "Table 1: 1-5); replaces every layer's", minimum=0.0),
 )
 
 #: The rock's general parameters on the command line.

@@ -2,7 +2,7 @@
 spheres and cylinders, the stack of sediment layers, painted regions and value noise on
 log-erodibility. A pydantic model validates a scene's mapping (a YAML file, a preset).
 
-Example (lengths in m, erodibilities in 1/y, stresses in Pa)::
+Example (lengths in m, erodibilities in 1/y, stresses in Pa, k_t in 1/Pa)::
 
     domain: {size: [40, 16, 30]}        # x east, y north, z up, from origin (default 0, 0)
     ground: 0                           # altitude of the ground plane and of the domain's bottom
@@ -13,11 +13,14 @@ Example (lengths in m, erodibilities in 1/y, stresses in Pa)::
         - sphere: {centre: [20, 8, 0], radius: 6}
     layers:                             # bottom first; the last top may be omitted
       - {top: 8, k_w: 2e-4, interlocking: 1.5e6}
-      - {k_w: 5e-5, interlocking: 3e6}
+      - {k_w: 5e-5, interlocking: 3e6, k_t: 100, tau_c: 5}
     paint:                              # later regions override earlier ones
       - {shape: {box: {min: [5, 5, 0], max: [8, 11, 20]}}, erodibility: 0}
     noise: {amplitude: 0.5, wavelength: 4, seed: 1}
     wind: {azimuth: 180, speed: 10}      # from the south
+    water:                              # fluvial erosion needs a layer with k_t > 0
+      precipitation: 0.25               # m/y
+      sources: [{position: [20, 8, 20], discharge: 1e5}]   # m, m³/y
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from unerode_cli.sandstone.fluvial import PRECIPITATION
 from unerode_cli.sandstone.layers import Layer, LayerStack, Rock
 
 Vec3 = tuple[float, float, float]
@@ -163,11 +167,14 @@ class LayerSpec(_Strict):
     interlocking: float = Field(Layer.interlocking, ge=0)
     k_a: float = Field(Layer.k_a, ge=0)
     k_d: float = Field(Layer.k_d, ge=0)
+    k_t: float = Field(Layer.k_t, ge=0)
+    tau_c: float = Field(Layer.tau_c, ge=0)
     name: str = ""
 
     def layer(self) -> Layer:
-        return Layer(math.inf if self.top is None else self.top, self.k_w, self.k_s, self.interlocking,
-                     self.k_a, self.k_d, self.name)
+        return Layer(top=math.inf if self.top is None else self.top, k_w=self.k_w, k_s=self.k_s,
+                     interlocking=self.interlocking, k_a=self.k_a, k_d=self.k_d, k_t=self.k_t,
+                     tau_c=self.tau_c, name=self.name)
 
 
 class Paint(_Strict):
@@ -201,6 +208,26 @@ class Wind(_Strict):
     rays: int = Field(16, ge=1)
 
 
+class WaterSource(_Strict):
+    """A point source of water (002 §8.2): it enters the cell of ``position`` (m) with
+    ``discharge`` Q (m³/y)."""
+
+    position: Vec3
+    discharge: float = Field(ge=0)
+
+
+class Water(_Strict):
+    """The water of fluvial erosion (002 §6): ``precipitation`` p (m/y) on the top of the
+    domain and point ``sources``."""
+
+    precipitation: float = Field(PRECIPITATION, ge=0)
+    sources: list[WaterSource] = Field(default_factory=list)
+
+    def source_tuples(self) -> tuple[tuple[float, float, float, float], ...]:
+        """Each source as (x, y, z, Q) (m, m³/y)."""
+        return tuple((*source.position, source.discharge) for source in self.sources)
+
+
 class Scene(_Strict):
     """A whole scene; see the module docstring for an example."""
 
@@ -215,6 +242,7 @@ class Scene(_Strict):
     paint: list[Paint] = Field(default_factory=list)
     noise: Noise | None = None
     wind: Wind = Wind()
+    water: Water = Water()
 
     @model_validator(mode="after")
     def _consistent(self) -> Scene:
@@ -230,6 +258,11 @@ class Scene(_Strict):
                              f"(known: {', '.join(Rock.__dataclass_fields__)})")
         if self.cell_size is not None and self.particles is not None:
             raise ValueError("give either cell_size or particles, not both")
+        high = self.low + np.asarray(self.domain.size)
+        for source in self.water.sources:
+            if not np.all((np.asarray(source.position) >= self.low) & (np.asarray(source.position) <= high)):
+                raise ValueError(f"the water source at {source.position} m lies outside the domain "
+                                 f"{tuple(self.low.tolist())} to {tuple(high.tolist())} m")
         return self
 
     @property

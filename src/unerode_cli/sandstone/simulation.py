@@ -3,9 +3,13 @@
 Each frame, in the paper's order: (1) stress by MLS-MPM (warm-started; the first frame settles
 from the lithostatic guess) and the erodibility it implies (Eq. 2); (2) surface particles and
 their normals, recomputed only near last frame's changes (§5.1); (3) wind: deflation (Eq. 12)
-and abrasion (Eq. 8); (4) the fluvial rate F, zero until fluvial erosion runs (§6); (5) erosion
-(Eq. 1) of the surface particles; (6) deposition (§7) of what eroded: each eroded particle is
-either deposited on a stable cell or exported out of the domain.
+and abrasion (Eq. 8); (4) fluvial: the water's receivers on the MPM grid (§6.2, Fig. 4,
+``water_receivers``), depression routing (``basins``), the discharge (``discharge``) and the
+fluvial rate F of Eq. 14 (``fluvial``), skipped (F = 0) when no layer has k_t > 0; (5) erosion
+(Eq. 1) of the surface particles, the wind and fluvial rates shielded by the vegetation cover
+(§8.3, ``vegetation``), which then grows on the deposits that stayed; (6) deposition (§7) of
+what eroded: each eroded particle is either deposited on a stable cell or exported out of the
+domain.
 
 Deposits eroded again are exported: 002 §7 deposits the rock's debris and "neglect[s] smaller
 sand grains and their transport by wind, as they are carried away from our domain", and a
@@ -22,7 +26,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from unerode_cli.sandstone import deflation, deposition, surface, viability, wind
+from unerode_cli.sandstone import (
+    basins,
+    deflation,
+    deposition,
+    discharge,
+    fluvial,
+    surface,
+    vegetation,
+    viability,
+    water_receivers,
+    wind,
+)
 from unerode_cli.sandstone.layers import LayerStack, Rock
 from unerode_cli.sandstone.mpm import MpmParams, Relaxation, StressSolver, lithostatic_guess
 from unerode_cli.sandstone.particles import Particles
@@ -41,19 +56,22 @@ class Processes:
     deflation: bool = True
     deposition: bool = True
     stress: bool = True
+    fluvial: bool = True
 
 
 @dataclass(frozen=True)
 class SimulationParams:
     """Everything a run needs besides the particles: ``dt`` the frame's time step (years, 002
-    Table 2: 1000), the stress solver, the wind, deflation and deposition parameters, the
-    processes that run, and ``neighbours`` the k of the normals (002 §5.1: 20)."""
+    Table 2: 1000), the stress solver, the wind, deflation, deposition and vegetation parameters,
+    the processes that run, and ``neighbours`` the k of the normals (002 §5.1: 20)."""
 
     dt: float = 1000.0
     mpm: MpmParams = field(default_factory=MpmParams)
     wind: wind.WindParams = field(default_factory=wind.WindParams)
     deflation: deflation.DeflationParams = field(default_factory=deflation.DeflationParams)
     deposition: deposition.DepositionParams = field(default_factory=deposition.DepositionParams)
+    vegetation: vegetation.VegetationParams = field(default_factory=vegetation.VegetationParams)
+    fluvial: fluvial.FluvialParams = field(default_factory=fluvial.FluvialParams)
     processes: Processes = field(default_factory=Processes)
     neighbours: int = 20
 
@@ -65,8 +83,10 @@ class SimulationParams:
 @dataclass(frozen=True)
 class FrameStats:
     """One frame's record: counts (``removed`` = ``deposited`` + ``exported``), the share of
-    interlocked particles, the largest compressive stress (Pa), the MPM's work and the wall
-    time of each stage (s)."""
+    interlocked particles, the largest compressive stress (Pa), the MPM's work, the wall
+    time of each stage (s), the eroded particles whose fluvial rate exceeded their wind rate
+    (``eroded_fluvial``) and the largest discharge of a cell (m³/y; 0 when fluvial erosion did
+    not run)."""
 
     frame: int
     particles: int
@@ -79,6 +99,8 @@ class FrameStats:
     mpm_substeps: int
     mpm_residual: float
     seconds: dict[str, float]
+    eroded_fluvial: int
+    discharge_max: float
 
 
 class Simulation:
@@ -105,6 +127,10 @@ class Simulation:
         if not params.processes.stress:
             self.threshold = np.full(len(self.k_w), np.inf)
         self.k_a, self.k_d = layers.table("k_a"), layers.table("k_d")
+        self.k_t, self.tau_c = layers.table("k_t"), layers.table("tau_c")
+        #: water is routed on the MPM grid, 002 §6.2's "3D regular grid aligned to the one used
+        #: for the MPM stress evaluation"
+        self.water_grid = lattice.mpm_grid()
         self.changes = np.zeros((0, 3))
         self.last_relaxation: Relaxation | None = None
 
@@ -137,9 +163,16 @@ class Simulation:
                                         self.k_a[p.layer],
                                         params.wind, self.seed, self.frame)
         lap("wind")
-        fluvial = np.zeros(len(p))
+        fluvial_rate, discharge_max = np.zeros(len(p)), 0.0
+        if params.processes.fluvial and np.any(self.k_t > 0.0):
+            fluvial_rate, discharge_max = self._fluvial(on_surface)
         lap("fluvial")
-        eroded = viability.erode(p.viability, on_surface, rate, rates, fluvial, params.dt)
+        shield = vegetation.shielding(p.vegetation, params.vegetation.shield)
+        eroded = viability.erode(p.viability, on_surface, rate, rates * shield, fluvial_rate * shield,
+                                 params.dt)
+        # eroded deposits are dropped below, so the cover grows on those that stayed (§8.3)
+        p.vegetation = vegetation.grow(p.vegetation, p.deposit & on_surface, params.vegetation.growth,
+                                       params.dt)
         lap("erosion")
         removed = p.positions[eroded]
         placed = self._deposit(p.positions[eroded & ~p.deposit], p.select(~eroded))
@@ -151,7 +184,19 @@ class Simulation:
             exported=len(removed) - len(placed), surface=int(on_surface.sum()),
             interlocked_share=float(p.interlocked.mean()) if len(p) else 0.0,
             max_stress=float(p.stress.max()) if len(p) else 0.0, mpm_substeps=relaxation.substeps,
-            mpm_residual=relaxation.residual, seconds=seconds)
+            mpm_residual=relaxation.residual, seconds=seconds,
+            eroded_fluvial=int(np.count_nonzero(eroded & (fluvial_rate > rates))),
+            discharge_max=discharge_max)
+
+    def _fluvial(self, on_surface: np.ndarray) -> tuple[np.ndarray, float]:
+        """The fluvial rate F of every particle (002 Alg. 1, lines 11–14) and the largest
+        discharge of a cell (m³/y)."""
+        p, water = self.particles, self.params.fluvial
+        receivers = water_receivers.water_receivers(p.positions, self.water_grid, self.seed, self.frame)
+        flow = discharge.discharge(basins.route_depressions(receivers), water.precipitation, water.sources)
+        rate = fluvial.fluvial_rate(p.positions, p.normals, on_surface, p.layer, self.k_t, self.tau_c, flow.q,
+                                    self.water_grid, water)
+        return rate, float(flow.q.max())
 
     def _stress(self) -> Relaxation:
         """Relax the MPM state: the first frame of a run settles (from the lithostatic guess)."""
