@@ -71,6 +71,12 @@ RAMP_START = 10.0
 RAMP_FACTOR = 1.5
 #: Most explicit sub-steps in one step before giving up.
 MAX_SUBSTEPS = 100_000
+#: Multi-scale steps that raise the ice surface above what the ice around could feed
+#: (``surface_overshoot``) are taken again at half their length, down to this length (y).
+RETRY_MIN_DT = 0.5
+#: Surface rise (m) above the bound of ``surface_overshoot`` tolerated (rounding, the thin ice
+#: the levels spread).
+OVERSHOOT_TOLERANCE_M = 1.0
 
 ICEFLOWS = ("blatter", "sia")
 TRANSPORTS = ("multiscale", "explicit")
@@ -376,6 +382,30 @@ def step(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, dt: f
                            flow_done - start, clock.perf_counter() - flow_done)
 
 
+def surface_overshoot(before: GlacierState, after: GlacierState, grid: Grid, params: CoupledParams,
+                      dt: float) -> float:
+    """How far (m) a step raised the ice surface s = b + H of some cell above the highest surface
+    of the state before it within reach, plus the most the mass balance may add, p_max·dt; ≤ 0
+    for a step that keeps to it.
+
+    Ice flows down its surface gradient, so ∂s/∂t = M − ∇·(ūH) obeys a maximum principle: ice
+    brought by the flow never stands higher than the ice it came from. The reach is the support
+    of the coarsest level of the multi-scale transport (2^n cells each way, ``multiscale``), the
+    farthest a step can move ice. A step that breaks this bound has created ice: 001 §5's level
+    weights vary in space, so where fast ice (tiny δt) borders still ice, the coarse levels carry
+    the fast ice's convergence to the still cells, whose δt is long. On Grindelwald at 92 m under
+    the ice of 86 ka (thick ice at km/y against the map's east edge), one 50-year step put a
+    2.3 km spike of ice on an empty cell 10 cells away, and the run diverged in the next.
+    """
+    from scipy import ndimage
+
+    reach = 2 ** multiscale.level_count(grid.shape)
+    old = np.where(grid.valid, before.bed + before.thickness, -np.inf)
+    highest = ndimage.maximum_filter(old, size=2 * reach + 1, mode="nearest")
+    rise = np.where(grid.valid, after.bed + after.thickness - highest, -np.inf)
+    return float(rise.max()) - float(np.max(params.p_max)) * dt
+
+
 def _explicit(state: GlacierState, flow: FlowField, grid: Grid, params: CoupledParams, ela: Ela,
               dt: float) -> tuple[np.ndarray, np.ndarray | float, int]:
     """Explicit transport over dt in sub-steps within the stability limit; SIA velocities are
@@ -447,7 +477,8 @@ class RunResult:
     one entry per step taken), and totals: ``steps``, ``substeps`` (explicit transport),
     ``resolves`` (steps whose velocities were iterated), ``evaluations`` (L-BFGS energy
     evaluations), ``unconverged`` (solves that hit their iteration limit), ``max_residual``,
-    ``eroded`` (m³ of bedrock removed), and ``seconds``: wall-clock time by part of the loop
+    ``eroded`` (m³ of bedrock removed), ``retries`` (multi-scale steps taken again at half their
+    length, ``surface_overshoot``), and ``seconds``: wall-clock time by part of the loop
     (``WALL_TIME_PARTS``: the ice flow, transport with mass balance and erosion, the processes of
     ice-free ground, and the rest: the checks and callbacks of ``run``)."""
 
@@ -461,6 +492,7 @@ class RunResult:
     unconverged: int = 0
     max_residual: float = 0.0
     eroded: float = 0.0
+    retries: int = 0
     seconds: dict[str, float] = field(default_factory=lambda: dict.fromkeys(WALL_TIME_PARTS, 0.0))
 
     def add(self, state: GlacierState, report: StepReport) -> None:
@@ -493,7 +525,9 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
     Cold starts: with multi-scale transport, whenever a step starts without ice, the steps are
     cut to ``RAMP_START`` years and grow by ``RAMP_FACTOR`` per step until they reach the times
     asked (``multiscale``: laying a long step of accumulation at once leaves a steep edge that
-    can blow up). Every step taken enters the volume series."""
+    can blow up). Rejected steps: a multi-scale step that creates ice (``surface_overshoot``) is
+    thrown away and taken again at half its length (not below ``RETRY_MIN_DT``), and the steps
+    then grow back by ``RAMP_FACTOR`` per step. Every step taken enters the volume series."""
     params.validate(grid.shape)
     started = clock.perf_counter()
     result = RunResult(state, [state.time], [ice_volume(state.thickness, grid)])
@@ -507,7 +541,13 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
             length = min(end - state.time, cap)
             if end - state.time - length <= 1e-9 * length:
                 length = end - state.time
-            state, report = step(state, grid, params, ela, length)
+            new, report = step(state, grid, params, ela, length)
+            if (ramp and length > RETRY_MIN_DT
+                    and surface_overshoot(state, new, grid, params, length) > OVERSHOOT_TOLERANCE_M):
+                cap = 0.5 * length
+                result.retries += 1
+                continue
+            state = new
             if after is not None:
                 lap = Stopwatch(result.seconds)
                 state = after(state, length)

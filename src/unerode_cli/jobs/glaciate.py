@@ -646,6 +646,7 @@ def _statistics(result: coupled.RunResult, terrain: Terrain, wall: float, snapsh
         "eroded_volume_m3": result.eroded,
         "max_erosion_m": float(lowering.max()) if lowering.size else 0.0,
         "transport_substeps": result.substeps,
+        "rejected_steps": result.retries,
         "velocity_resolves": result.resolves,
         "energy_evaluations": result.evaluations,
         "unconverged_solves": result.unconverged,
