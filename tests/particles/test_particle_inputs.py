@@ -25,7 +25,9 @@ FLAT = HeightfieldTerrain(np.zeros((8, 8)), GRID)
 
 
 def test_presets_read_table_1_and_take_overrides():
-    assert set(PRESETS) == {"rain", "river", "landslide", "coastal", "wind", "underwater", "volcano"}
+    # 003 Table 1's rows (karst, tunnel and meanders among them)
+    assert set(PRESETS) == {"rain", "river", "landslide", "coastal", "wind", "underwater", "volcano",
+                            "meanders", "karst", "tunnel"}
     rain = preset_params("rain", 20.0)
     assert (rain.radius, rain.restitution, rain.density, rain.capacity, rain.k_eps, rain.omega) == (
         20.0, 1.0, 1000.0, 10.0, 2.5, 0.3)

@@ -26,8 +26,8 @@ def _block(cover: float) -> tuple[Particles, Lattice]:
     i, j, k = np.meshgrid(np.arange(SIDE), np.arange(SIDE), np.arange(HEIGHT), indexing="ij")
     positions = np.column_stack([i.ravel(), j.ravel(), k.ravel()]) + 0.5
     rim = (np.minimum(i, j).ravel() == 0) | (np.maximum(i, j).ravel() == SIDE - 1)
-    particles = Particles.new(positions, np.zeros(len(positions), np.int32), erodibility=np.where(rim, 0.0, 1.0),
-                              vegetation=np.full(len(positions), cover))
+    particles = Particles.new(positions, np.zeros(len(positions), np.int32),
+                              erodibility=np.where(rim, 0.0, 1.0), vegetation=np.full(len(positions), cover))
     return particles, Lattice((0.0, 0.0, 0.0), (float(SIDE), float(SIDE), HEIGHT + 2.0), 1.0)
 
 

@@ -137,7 +137,8 @@ def test_a_closed_bowl_drains_through_its_spill_point(one_thread):
     i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     r2 = (i - 7) ** 2 + (j - 7) ** 2
     r = np.sqrt(r2)
-    tops = np.where(r < 4, LEVEL + 0.5 + 0.01 * r2, np.where(r < 5, LEVEL + 0.9, LEVEL + 0.7 - 0.04 * (r - 5)))
+    tops = np.where(r < 4, LEVEL + 0.5 + 0.01 * r2,
+                    np.where(r < 5, LEVEL + 0.9, LEVEL + 0.7 - 0.04 * (r - 5)))
     tops[7, 11] = LEVEL + 0.75
     p = 1.0
     routing = _routing(_columns(tops), seed=11)

@@ -74,7 +74,8 @@ def _members(path: Path) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
             found = {}
             for info in archive.infolist():
                 if not info.filename.endswith(".npy"):
-                    raise InputError(f"the voxel file {path} holds '{info.filename}', which is not a NumPy array.")
+                    raise InputError(f"the voxel file {path} holds '{info.filename}', which is not a "
+                                     "NumPy array.")
                 with archive.open(info) as handle:
                     version = np.lib.format.read_magic(handle)
                     read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
@@ -266,7 +267,8 @@ def read_material_layers(path: Path) -> MaterialLayers:
         tops.append(_number(horizon["top"], f"the top of horizon {i + 1}", path) if "top" in horizon
                     else float("inf"))
     if any(b <= a for a, b in zip(tops, tops[1:], strict=False)):
-        raise InputError(f"the materials file {path}: the horizons' tops must increase upwards (bottom first).")
+        raise InputError(f"the materials file {path}: the horizons' tops must increase upwards "
+                         "(bottom first).")
     if tops:
         tops[-1] = float("inf")
     eroded = doc.get("eroded", {})

@@ -7,7 +7,11 @@ stack is the surface minus the total thickness. A voxel terrain (003 §4.4: dens
 voxels) is a block built from the DEM (columns of about ``--voxel-size`` over its extent, from
 ``--depth`` below its lowest cell to ``--headroom`` above its highest, CRS and origin kept),
 with 3D material layers from a YAML of horizons, or a volume read from ``--voxels`` (an .npz,
-``io.voxel_files``). Outputs: the new surface (a DEM like the input; on voxels the highest
+``io.voxel_files``). An implicit terrain (003 §4.3: a signed distance function altered by
+metaballs) has the DEM's surface, or the scene of ``--sdf`` (``io.sdf_scene``), as its base,
+and its cache of nodes on the block the DEM would give. Several kinds of particles run
+together (003 Fig. 8) from ``--preset A+B+…`` or ``--kinds`` (``io.particle_kinds``).
+Outputs: the new surface (a DEM like the input; on voxels and implicit terrains the highest
 ground surface of each column, on the volume's columns), optionally the change map Δh (m), the
 layers (thicknesses in the input's format, the deposit layer on top) or the altered volume and
 its surface mesh, and a GeoJSON of sampled particle paths. The JSON sidecar holds the mass
@@ -26,24 +30,25 @@ import contextlib
 import json
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from affine import Affine
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.grid_rasters import load_on_grid, read_bands_on_grid, write_bands
 from unerode_cli.io.material_files import read_materials
 from unerode_cli.io.mesh_files import mesh_format, write_mesh
+from unerode_cli.io.particle_kinds import KindSpec, read_particle_kinds
 from unerode_cli.io.particle_paths import grid_to_map, write_paths
-from unerode_cli.io.paths import check_output
+from unerode_cli.io.paths import atomic_path, check_output
 from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.river_files import read_river_line
+from unerode_cli.io.sdf_scene import read_sdf_scene
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.voxel_files import (
     VOXEL_SUFFIX,
@@ -55,7 +60,11 @@ from unerode_cli.io.voxel_files import (
     write_voxels,
 )
 from unerode_cli.particles import (
+    APPLY_MODES,
+    IMPLICIT_REPRESENTATIONS,
     PARAMETERS,
+    PER_IMPACT,
+    PER_ITERATION,
     REPRESENTATIONS,
     VOXEL_REPRESENTATIONS,
     BinaryTerrain,
@@ -65,27 +74,33 @@ from unerode_cli.particles import (
     LayeredTerrain,
     Material,
     MaterialRules,
+    ParticleKind,
     ParticleParams,
     ParticleRun,
     Preset,
+    SdfTerrain,
     VelocityField,
     get_preset,
     run_bytes,
+    sdf_run_bytes,
 )
 from unerode_cli.particles import Terrain as ParticleTerrain
 from unerode_cli.run.divergence import DivergenceGuard
 from unerode_cli.run.outputs import Outputs, check_png, check_raster, field_preview, save
 from unerode_cli.run.parameter_maps import resolve
+from unerode_cli.viz.particles_preview import save_particles_preview
 from unerode_cli.volume.mesh import MeshExtraMissing, enclosed_volume, marching_cubes_function
 from unerode_cli.volume.voxels import (
     BinaryVoxels,
     DensityVoxels,
+    VoxelGeometry,
     binary_block,
     block_geometry,
     column_heights,
     density_block,
     ground_mesh,
     horizon_material,
+    vertex_normals,
 )
 
 COMMAND = "particle-erode"
@@ -98,27 +113,35 @@ DEFAULT_DEPTH_VOXELS = 10
 DEFAULT_HEADROOM_VOXELS = 10
 #: Memory a voxel run may take unless --memory-budget says otherwise (GiB).
 DEFAULT_MEMORY_BUDGET_GIB = 4.0
+#: The terrains impacts can alter as they happen (``Terrain.live_state``).
+PER_IMPACT_REPRESENTATIONS = ("heightfield", "density", "binary")
 _VOXEL_OPTIONS = (("voxel_size", "--voxel-size"), ("depth", "--depth"), ("headroom", "--headroom"),
                   ("voxels", "--voxels"), ("volume_out", "--volume-out"), ("mesh", "--mesh"),
                   ("hits_per_voxel", "--hits-per-voxel"), ("hits_threshold", "--hits-threshold"))
+#: Options of voxels that an implicit terrain (one material, no hit counts) does not take.
+_NOT_IMPLICIT = (("voxels", "--voxels"), ("hits_per_voxel", "--hits-per-voxel"),
+                 ("hits_threshold", "--hits-threshold"), ("materials", "--materials"),
+                 ("deposit_material", "--deposit-material"))
 
 
 @dataclass(frozen=True)
 class ParticleJob:
     """What the user asked for. Texts are parsed in ``plan``; None = the preset's value.
+    ``preset`` may name several presets joined by "+" (None: rain, or the kinds of ``kinds``).
 
     Attributes (units): ``outputs`` the output DEM and its write options; ``sources`` "X,Y" map
     coordinates in the DEM's CRS (m or degrees) or one GeoJSON/WKT line file; ``spread`` m;
     ``velocity`` "uniform:VE,VN[,VU]" (m/s), "sin[:AMPLITUDE,WAVELENGTH]" (m/s, m) or a 2/3-band
     raster path; ``emission_velocity`` "VE,VN[,VU]" (m/s); ``sea_level`` m; ``path_stride``
-    steps; ``representation`` heightfield, layers, density or binary (None: from the inputs and
-    the preset); ``voxel_size``, ``depth``, ``headroom`` m; ``memory_budget`` GiB;
-    ``hits_per_voxel`` α (hits per voxel volume) and ``hits_threshold`` C (hits) of binary voxels.
+    steps; ``representation`` heightfield, layers, density, binary or sdf (None: from the inputs
+    and the preset); ``voxel_size``, ``depth``, ``headroom`` m; ``memory_budget`` GiB;
+    ``hits_per_voxel`` α (hits per voxel volume) and ``hits_threshold`` C (hits) of binary voxels;
+    ``apply`` when impacts alter the terrain, per-iteration or per-impact (``particles.APPLY_MODES``).
     """
 
     source: Path
     outputs: Outputs
-    preset: str = "rain"
+    preset: str | None = None
     particles: int | None = None
     iterations: int | None = None
     seed: int = 0
@@ -153,15 +176,19 @@ class ParticleJob:
     memory_budget: float = DEFAULT_MEMORY_BUDGET_GIB
     hits_per_voxel: float | None = None
     hits_threshold: int | None = None
+    sdf: Path | None = None
+    kinds: Path | None = None
+    apply: str = PER_ITERATION
 
 
 @dataclass(frozen=True)
 class VoxelSetup:
-    """A voxel terrain and what its outputs need: ``surface`` its top heightfield before the
-    run, georeferenced (the reference of the emission, the medium and the outputs), the CRS
-    WKT and the material names of the volume, and what it was built from (``description``)."""
+    """A 3D terrain (voxels or implicit) and what its outputs need: ``surface`` its top
+    heightfield before the run, georeferenced (the reference of the emission, the medium and
+    the outputs), the CRS WKT and the material names of the volume, and what it was built from
+    (``description``)."""
 
-    terrain: DensityTerrain | BinaryTerrain
+    terrain: DensityTerrain | BinaryTerrain | SdfTerrain
     surface: Terrain
     crs_wkt: str
     material_names: tuple[str, ...]
@@ -170,8 +197,9 @@ class VoxelSetup:
 
 @dataclass
 class PreparedParticleJob:
-    """A checked job: inputs read, terrain, parameters, emission and medium built, every
-    output path cleared."""
+    """A checked job: inputs read, terrain, kinds of particles (parameters, emission and
+    medium; ``params``, ``emission`` and ``velocity`` are the first kind's) built, every output
+    path cleared."""
 
     job: ParticleJob
     dem: Terrain
@@ -186,6 +214,7 @@ class PreparedParticleJob:
     notes: list[str]
     surface: Terrain
     volume: VoxelSetup | None = None
+    kinds: tuple[ParticleKind, ...] = ()
 
 
 @contextlib.contextmanager
@@ -209,12 +238,15 @@ def default_layers_path(output: Path) -> Path:
 
 def plan(job: ParticleJob) -> PreparedParticleJob:
     """Check the whole job before any work: options, outputs, inputs, parameters."""
-    with bad_input():
-        preset = get_preset(job.preset)
+    specs, file_iterations = _kind_specs(job)
+    presets = [get_preset(spec.preset) for spec in specs]
+    preset = presets[0]
     representation = _representation(job, preset)
     _check_terrain_options(job, representation)
+    _check_apply(job, representation)
     outputs = job.outputs
-    inputs = tuple(p for p in (job.source, job.layers, job.materials, job.rain_mask, job.voxels) if p is not None)
+    inputs = tuple(p for p in (job.source, job.layers, job.materials, job.rain_mask, job.voxels, job.sdf,
+                               job.kinds) if p is not None)
     outputs.check(*inputs)
     layers_out = None
     if job.layers is not None:
@@ -239,12 +271,17 @@ def plan(job: ParticleJob) -> PreparedParticleJob:
     dem.check_valid(job.source)
     outputs.check_source(dem, job.source)
     notes: list[str] = []
-    volume = voxel_setup(job, dem, representation, notes) if representation in VOXEL_REPRESENTATIONS else None
+    volume = None
+    if representation in VOXEL_REPRESENTATIONS:
+        volume = voxel_setup(job, dem, representation, notes)
+    elif representation in IMPLICIT_REPRESENTATIONS:
+        volume = sdf_setup(job, dem)
     surface = dem if volume is None else volume.surface
     grid = surface.grid
-    params = particle_params(preset, job.parameter_values, surface)
-    emission = build_emission(job, preset, params, surface, notes)
-    velocity = build_velocity(job, preset, surface)
+    several = len(specs) > 1
+    kinds = tuple(particle_kind(job, p, spec, surface, notes, several)
+                  for p, spec in zip(presets, specs, strict=True))
+    params, emission, velocity = kinds[0].params, kinds[0].emission, kinds[0].velocity
     terrain: ParticleTerrain
     if volume is not None:
         terrain = volume.terrain
@@ -254,37 +291,82 @@ def plan(job: ParticleJob) -> PreparedParticleJob:
         with bad_input():
             terrain = HeightfieldTerrain(np.nan_to_num(dem.elevation), grid)
     with bad_input():
-        params.validate(grid)
-        emission.validate(grid)
-        if velocity is not None:
-            velocity.validate(grid)
-    iterations = preset.iterations if job.iterations is None else job.iterations
+        for kind in kinds:
+            for part in (kind.params, kind.emission, kind.velocity):
+                if part is not None:
+                    part.validate(grid)
+    iterations = job.iterations or file_iterations or max(p.iterations for p in presets)
     provenance = {
-        "input": job.source, "preset": preset.name, "representation": representation,
-        "particles_per_iteration": emission.count,
-        "iterations": iterations, "emission": emission.kind, "source_points": _points(emission, surface),
-        "spread_m": emission.spread, "rain_mask": job.rain_mask, "emission_velocity_m_s": emission.velocity,
-        "velocity": job.velocity, "velocity_medium": None if velocity is None else velocity.medium,
-        "sea_level_m": job.sea_level, "layers": job.layers, "materials": job.materials,
-        **asdict(params),
+        "input": job.source, "preset": "+".join(p.name for p in presets), "representation": representation,
+        "particles_per_iteration": sum(kind.emission.count for kind in kinds), "iterations": iterations,
+        "rain_mask": job.rain_mask, "sea_level_m": job.sea_level, "layers": job.layers,
+        "materials": job.materials, "sdf_scene": job.sdf, "kinds_file": job.kinds, "apply": job.apply,
     }
+    described = [_kind_provenance(job, p, spec, kind, surface)
+                 for p, spec, kind in zip(presets, specs, kinds, strict=True)]
+    if several:
+        provenance["kinds"] = described
+    else:
+        provenance.update(described[0])
     if isinstance(terrain, LayeredTerrain):
         provenance["layer_materials"] = [terrain.materials[m].name for m in terrain.layer_material]
         provenance["deposit_material"] = terrain.materials[terrain.deposit_material].name
     if volume is not None:
         provenance.update(_volume_provenance(volume))
     return PreparedParticleJob(job, dem, terrain, params, emission, velocity, iterations, outputs,
-                               layers_out, provenance, notes, surface, volume)
+                               layers_out, provenance, notes, surface, volume, kinds)
+
+
+def _kind_specs(job: ParticleJob) -> tuple[list[KindSpec], int | None]:
+    """The kinds of particles of the run, in order, and the iterations their file asks for:
+    ``--kinds``' file, or the presets of ``--preset`` joined by "+" (default rain)."""
+    if job.kinds is not None:
+        if job.preset is not None:
+            raise InputError("give the kinds of particles with --preset or with --kinds, not both.")
+        spec = read_particle_kinds(job.kinds)
+        return list(spec.kinds), spec.iterations
+    names = (job.preset or "rain").split("+")
+    with bad_input():
+        for name in names:
+            get_preset(name)
+    return [KindSpec(preset=name) for name in names], None
+
+
+def particle_kind(job: ParticleJob, preset: Preset, spec: KindSpec, surface: Terrain, notes: list[str],
+                  several: bool) -> ParticleKind:
+    """A kind of particles: the preset's values, the spec's and then the command line's
+    parameters; its emission (``several``: one kind among others) and medium velocity."""
+    params = particle_params(preset, job.parameter_values, surface, spec.parameters)
+    emission = build_emission(job, preset, params, surface, notes, count=spec.particles, several=several)
+    velocity = build_velocity(job, preset, surface, _velocity_text(job, preset, spec))
+    return ParticleKind(params, emission, velocity, preset.name)
+
+
+def _velocity_text(job: ParticleJob, preset: Preset, spec: KindSpec) -> str | None:
+    """The medium velocity of a kind in the words of --velocity: the kind's, else --velocity,
+    else the preset's (None: still medium)."""
+    return spec.velocity or job.velocity or preset.velocity or None
+
+
+def _kind_provenance(job: ParticleJob, preset: Preset, spec: KindSpec, kind: ParticleKind,
+                     surface: Terrain) -> dict[str, Any]:
+    emission, velocity = kind.emission, kind.velocity
+    return {"kind": kind.name, "particles_per_iteration": emission.count, "emission": emission.kind,
+            "source_points": _points(emission, surface), "spread_m": emission.spread,
+            "emission_velocity_m_s": emission.velocity, "velocity": _velocity_text(job, preset, spec),
+            "velocity_medium": None if velocity is None else velocity.medium, **asdict(kind.params)}
 
 
 def _representation(job: ParticleJob, preset: Preset) -> str:
-    """The terrain representation: --representation, else that of --voxels' file, else
-    "layers" with --layers, else the preset's."""
+    """The terrain representation: --representation, else that of --voxels' file, else sdf
+    with --sdf, else "layers" with --layers, else the (first) preset's."""
     if job.representation is not None:
         if job.representation not in REPRESENTATIONS:
             raise InputError(f"unknown representation '{job.representation}'; choose "
                              f"{', '.join(REPRESENTATIONS[:-1])} or {REPRESENTATIONS[-1]}.")
         return job.representation
+    if job.sdf is not None:
+        return "sdf"
     if job.voxels is not None:
         return voxel_file_layout(job.voxels)[1]
     return "layers" if job.layers is not None else preset.representation
@@ -298,15 +380,25 @@ def _check_terrain_options(job: ParticleJob, representation: str) -> None:
     elif job.layers is not None or job.layer_materials or job.layers_out:
         raise InputError(f"--layers, --layer-materials and --layers-out describe a layered terrain, not "
                          f"a {representation} one.")
-    if representation in VOXEL_REPRESENTATIONS:
+    if job.sdf is not None and representation != "sdf":
+        raise InputError(f"--sdf gives an implicit terrain (--representation sdf), not a {representation} "
+                         "one.")
+    if representation in IMPLICIT_REPRESENTATIONS:
+        given = [option for name, option in _NOT_IMPLICIT if getattr(job, name) is not None]
+        if given:
+            raise InputError(f"{', '.join(given)} describe voxels; an implicit terrain is built from the DEM "
+                             "or --sdf and has one material (--k-eps, --tau-c).")
+    if representation in VOXEL_REPRESENTATIONS + IMPLICIT_REPRESENTATIONS:
         if job.voxels is not None:
             given = [option for name, option in _VOXEL_OPTIONS[:3] if getattr(job, name) is not None]
             if given:
-                raise InputError(f"{', '.join(given)} build a block from the DEM; --voxels brings its own grid.")
+                raise InputError(f"{', '.join(given)} build a block from the DEM; --voxels brings its own "
+                                 "grid.")
         if representation == "density" and (job.hits_per_voxel is not None or job.hits_threshold is not None):
             raise InputError("--hits-per-voxel and --hits-threshold are for binary voxels.")
         for value, option, low in ((job.voxel_size, "--voxel-size", 0.0), (job.depth, "--depth", -1.0),
-                                   (job.headroom, "--headroom", -1.0), (job.hits_per_voxel, "--hits-per-voxel", 0.0)):
+                                   (job.headroom, "--headroom", -1.0),
+                                   (job.hits_per_voxel, "--hits-per-voxel", 0.0)):
             if value is not None and not (math.isfinite(value) and value > low):
                 raise InputError(f"{option} must be a {'positive' if low == 0 else 'non-negative'} number, "
                                  f"got {value}.")
@@ -328,7 +420,16 @@ def _check_terrain_options(job: ParticleJob, representation: str) -> None:
                          "(--representation density or binary).")
     given = [option for name, option in _VOXEL_OPTIONS if getattr(job, name) is not None]
     if given:
-        raise InputError(f"{', '.join(given)} need voxels (--representation density or binary).")
+        raise InputError(f"{', '.join(given)} need a 3D terrain (--representation density, binary or sdf).")
+
+
+def _check_apply(job: ParticleJob, representation: str) -> None:
+    """``--apply``: one of ``APPLY_MODES``; per-impact on heightfields and density and binary voxels."""
+    if job.apply not in APPLY_MODES:
+        raise InputError(f"--apply must be {' or '.join(APPLY_MODES)}, got '{job.apply}'.")
+    if job.apply == PER_IMPACT and representation not in PER_IMPACT_REPRESENTATIONS:
+        raise InputError(f"--apply per-impact works on {', '.join(PER_IMPACT_REPRESENTATIONS)} terrains, "
+                         f"not on a {representation} one.")
 
 
 def _check_counts(job: ParticleJob) -> None:
@@ -352,13 +453,15 @@ def _check_sources(job: ParticleJob) -> None:
                          f"GeoJSON/WKT line file, and '{job.sources[0]}' is neither.")
 
 
-def particle_params(preset: Preset, given: dict[str, str | None], dem: Terrain) -> ParticleParams:
-    """The preset's parameters on the DEM's cells (R in cells × the mean cell size), with the
-    values given on the command line (SI units, checked against ``particles.PARAMETERS``)."""
+def particle_params(preset: Preset, given: dict[str, str | None], dem: Terrain,
+                    values: Mapping[str, float] | None = None) -> ParticleParams:
+    """The preset's parameters on the DEM's cells (R in cells × the mean cell size), with
+    ``values`` (a kind's, SI units) and then the values given on the command line (SI units,
+    checked against ``particles.PARAMETERS``) replacing them."""
     overrides = {spec.name: float(resolve(spec, text, dem))
                  for spec in PARAMETERS if (text := given.get(spec.name)) is not None}
     with bad_input():
-        return preset.params(0.5 * (dem.dx + dem.dy), **overrides)
+        return preset.params(0.5 * (dem.dx + dem.dy), **{**(values or {}), **overrides})
 
 
 def _numbers(text: str, counts: tuple[int, ...], what: str) -> list[float]:
@@ -404,16 +507,19 @@ def source_points(job: ParticleJob, dem: Terrain, notes: list[str]) -> np.ndarra
 
 
 def build_emission(job: ParticleJob, preset: Preset, params: ParticleParams, dem: Terrain,
-                   notes: list[str]) -> Emission:
-    """Rain over the domain (or weighted by ``--rain-mask``) or a source point / line."""
-    kind = job.emission or ("source" if job.sources else preset.emission)
+                   notes: list[str], count: int | None = None, several: bool = False) -> Emission:
+    """Rain over the domain (or weighted by ``--rain-mask``) or a source point / line, with
+    ``count`` particles per iteration (default: --particles, else the preset's). A kind among
+    ``several`` emits as its preset does unless --emission says otherwise, --source and
+    --rain-mask going to the kinds that emit that way."""
+    kind = job.emission or ("source" if job.sources and not several else preset.emission)
     if kind not in ("rain", "source"):
         raise InputError(f"--emission must be rain or source, got '{kind}'.")
-    if kind == "rain" and job.sources:
+    if kind == "rain" and job.sources and not several:
         raise InputError("--source needs --emission source (or a preset that emits from a source).")
-    if kind == "source" and job.rain_mask is not None:
+    if kind == "source" and job.rain_mask is not None and not several:
         raise InputError("--rain-mask needs rain emission (--emission rain).")
-    count = preset.particles if job.particles is None else job.particles
+    count = count or (preset.particles if job.particles is None else job.particles)
     velocity = (0.0, 0.0, 0.0)
     if job.emission_velocity is not None:
         velocity = tuple(_numbers(job.emission_velocity, (2, 3), "--emission-velocity") + [0.0])[:3]
@@ -431,17 +537,18 @@ def build_emission(job: ParticleJob, preset: Preset, params: ParticleParams, dem
             if not mask.any():
                 raise InputError(f"no cell's ground lies below --sea-level {job.sea_level:g} m, where the "
                                  f"{preset.name} preset's particles start; give a --rain-mask.")
-            notes.append(f"note: the {preset.name} preset's particles start over the {int(mask.sum())} cell(s) "
+            notes.append(f"note: the {preset.name} preset's particles start over the {int(mask.sum())} "
+                         "cell(s) "
                          f"whose ground is below --sea-level {job.sea_level:g} m.")
         return Emission.rain(count, mask, velocity=velocity)
     spread = params.radius if job.spread is None else job.spread
     return Emission.source(count, source_points(job, dem, notes), spread=spread, velocity=velocity)
 
 
-def build_velocity(job: ParticleJob, preset: Preset, dem: Terrain) -> VelocityField | None:
-    """The medium velocity field (003 Eq. 8) of ``--velocity``, or None (still medium)."""
+def build_velocity(job: ParticleJob, preset: Preset, dem: Terrain, text: str | None) -> VelocityField | None:
+    """The medium velocity field (003 Eq. 8) described by ``text`` in the words of
+    ``--velocity``, acting in ``--velocity-medium`` or the preset's medium; None: still medium."""
     medium = job.velocity_medium or preset.field_medium
-    text = job.velocity
     if text is None:
         return None
     kind, _, numbers = text.partition(":")
@@ -498,16 +605,21 @@ def layered_terrain(job: ParticleJob, dem: Terrain, notes: list[str]) -> Layered
                               names.index(deposit), dem.grid)
 
 
-def _check_memory(voxels: int, representation: str, with_material: bool, budget_gib: float, what: str) -> None:
-    """Refuse a voxel grid whose run would need more than ``budget_gib`` GiB."""
-    needed = run_bytes(voxels, representation, with_material)
+def _check_memory(voxels: int, representation: str, with_material: bool, budget_gib: float,
+                  what: str) -> None:
+    """Refuse a voxel grid (or an implicit terrain's cache) whose run would need more than
+    ``budget_gib`` GiB."""
+    needed = (sdf_run_bytes(voxels) if representation in IMPLICIT_REPRESENTATIONS
+              else run_bytes(voxels, representation, with_material))
     if needed > budget_gib * 2**30:
-        raise InputError(f"{what} has {voxels:,} voxels, whose run needs about {needed / 2**30:.1f} GiB, more "
+        raise InputError(f"{what} has {voxels:,} voxels, whose run needs about {needed / 2**30:.1f} GiB, "
+                         "more "
                          f"than the {budget_gib:g} GiB of --memory-budget; use larger voxels or a smaller "
                          "area, or raise --memory-budget.")
 
 
-def _voxel_materials(job: ParticleJob, notes: list[str]) -> tuple[list[Material] | None, MaterialLayers | None]:
+def _voxel_materials(job: ParticleJob,
+                     notes: list[str]) -> tuple[list[Material] | None, MaterialLayers | None]:
     """The materials of a voxel terrain: --materials as a CSV table (materials only) or a YAML
     of 3D material layers (``io.voxel_files``); (None, None) without --materials."""
     if job.materials is None:
@@ -525,8 +637,11 @@ def _material_index(name: str, materials: list[Material], where: Path | None) ->
     return names.index(name)
 
 
-def _block(job: ParticleJob, dem: Terrain, representation: str, with_material: bool) -> DensityVoxels | BinaryVoxels:
-    """The block under the DEM (``volume.voxels.density_block`` / ``binary_block``)."""
+def _block_frame(job: ParticleJob, dem: Terrain, representation: str, with_material: bool,
+                 extent: tuple[float, float] | None = None) -> tuple[VoxelGeometry, np.ndarray, np.ndarray]:
+    """The voxels of the block under the DEM (over its elevations and ``extent``, m, with
+    --depth below and --headroom above), the DEM's heights at their columns and the columns
+    inside the domain; its run's memory checked."""
     if not (math.isclose(dem.transform.a, dem.dx, rel_tol=1e-6) and math.isclose(-dem.transform.e, dem.dy,
                                                                                  rel_tol=1e-6)):
         raise InputError(f"{job.source} is not in a projected CRS in metres; a voxel block needs one "
@@ -534,6 +649,8 @@ def _block(job: ParticleJob, dem: Terrain, representation: str, with_material: b
     size = job.voxel_size or 0.5 * (dem.dx + dem.dy)
     valid = dem.grid.valid
     low, high = float(np.nanmin(dem.elevation)), float(np.nanmax(dem.elevation))
+    if extent is not None:
+        low, high = min(low, extent[0]), max(high, extent[1])
     depth = DEFAULT_DEPTH_VOXELS * size if job.depth is None else job.depth
     headroom = DEFAULT_HEADROOM_VOXELS * size if job.headroom is None else job.headroom
     ny, nx = dem.shape
@@ -543,6 +660,13 @@ def _block(job: ParticleJob, dem: Terrain, representation: str, with_material: b
     _check_memory(geometry.count, representation, with_material, job.memory_budget,
                   f"the block of {size:g} m voxels under {job.source.name}")
     heights, columns = column_heights(dem.elevation, valid, dem.dx, dem.dy, geometry.shape[:2])
+    return geometry, heights, columns
+
+
+def _block(job: ParticleJob, dem: Terrain, representation: str,
+           with_material: bool) -> DensityVoxels | BinaryVoxels:
+    """The block under the DEM (``volume.voxels.density_block`` / ``binary_block``)."""
+    geometry, heights, columns = _block_frame(job, dem, representation, with_material)
     if representation == "density":
         return DensityVoxels(geometry, density_block(heights, geometry), valid=columns)
     return BinaryVoxels(geometry, binary_block(heights, geometry), valid=columns)
@@ -552,7 +676,8 @@ def _converted(voxels: DensityVoxels | BinaryVoxels, representation: str) -> Den
     """The voxels as ``representation``: binary voxels read as densities ±1, densities as
     binary voxels where f > 0 (003 §4.4: one can be turned into the other)."""
     if representation == "density" and isinstance(voxels, BinaryVoxels):
-        return DensityVoxels(voxels.geometry, np.where(voxels.solid, 1.0, -1.0), voxels.material, voxels.valid)
+        density = np.where(voxels.solid, 1.0, -1.0)
+        return DensityVoxels(voxels.geometry, density, voxels.material, voxels.valid)
     if representation == "binary" and isinstance(voxels, DensityVoxels):
         return BinaryVoxels(voxels.geometry, voxels.density > 0.0, None, voxels.material, voxels.valid)
     return voxels
@@ -570,10 +695,12 @@ def _from_file(job: ParticleJob, representation: str, materials: list[Material] 
     if voxels.material is None:
         return voxels, file
     if materials is None:
-        raise InputError(f"the voxel file {job.voxels} has a material index: give the materials' erodibilities "
+        raise InputError(f"the voxel file {job.voxels} has a material index: give the materials' "
+                         "erodibilities "
                          "with --materials.")
     if layers is not None and layers.tops:
-        raise InputError(f"the voxel file {job.voxels} has its own material index; --materials gives horizons, "
+        raise InputError(f"the voxel file {job.voxels} has its own material index; --materials gives "
+                         "horizons, "
                          "which are for a block built from the DEM.")
     if file.material_names:
         lookup = np.array([_material_index(name, materials, job.materials) for name in file.material_names],
@@ -600,7 +727,8 @@ def voxel_setup(job: ParticleJob, dem: Terrain, representation: str, notes: list
         description = f"a block under {job.source.name}"
     if materials is not None and voxels.material is None:
         if layers is None or not layers.tops:
-            raise InputError(f"the materials {job.materials} give no horizons to place in the volume: use a YAML "
+            raise InputError(f"the materials {job.materials} give no horizons to place in the volume: use a "
+                             "YAML "
                              "of 3D material layers with 'horizons' (or a voxel file with a material index).")
         voxels.material = horizon_material(voxels.geometry, np.array(layers.tops),
                                            np.array(layers.horizon_materials))
@@ -618,23 +746,50 @@ def voxel_setup(job: ParticleJob, dem: Terrain, representation: str, notes: list
             terrain: DensityTerrain | BinaryTerrain = DensityTerrain(voxels, materials, rules)
         else:
             binary = {"alpha": job.hits_per_voxel, "threshold": job.hits_threshold}
-            terrain = BinaryTerrain(voxels, materials, rules, **{k: v for k, v in binary.items() if v is not None})
+            given = {k: v for k, v in binary.items() if v is not None}
+            terrain = BinaryTerrain(voxels, materials, rules, **given)
     return VoxelSetup(terrain, _surface_raster(terrain, crs_wkt, dem), crs_wkt, names, description)
 
 
-def _surface_raster(terrain: DensityTerrain | BinaryTerrain, crs_wkt: str, dem: Terrain) -> Terrain:
-    """The top heightfield of a voxel terrain as a raster on its columns (NaN outside the
+def sdf_setup(job: ParticleJob, dem: Terrain) -> VoxelSetup:
+    """The implicit terrain (003 §4.3) of the job: the DEM's surface, or the scene of --sdf in
+    the DEM's CRS, on the nodes of the block the DEM would give (--voxel-size, --depth,
+    --headroom, reaching the scene's shapes)."""
+    from unerode_cli.volume.sdf import ImplicitField, Surface, uses_surface
+
+    scene = read_sdf_scene(job.sdf) if job.sdf is not None else Surface()
+    geometry, heights, columns = _block_frame(job, dem, "sdf", False, scene.z_range())
+    dx, dy, _ = geometry.size
+    west, north, _ = geometry.origin
+    with bad_input():
+        field = ImplicitField(geometry, scene.framed(west + 0.5 * dx, north - 0.5 * dy),
+                              heights if uses_surface(scene) else None)
+        terrain = SdfTerrain(field, columns)
+    description = (f"the scene {job.sdf.name} over {job.source.name}" if job.sdf is not None
+                   else f"the surface of {job.source.name}")
+    return VoxelSetup(terrain, _surface_raster(terrain, dem.crs_wkt, dem), dem.crs_wkt, (), description)
+
+
+def _geometry(terrain: DensityTerrain | BinaryTerrain | SdfTerrain) -> VoxelGeometry:
+    """The voxels of a 3D terrain (an implicit one's cache nodes)."""
+    return terrain.geometry if isinstance(terrain, SdfTerrain) else terrain.voxels.geometry
+
+
+def _surface_raster(terrain: DensityTerrain | BinaryTerrain | SdfTerrain, crs_wkt: str,
+                    dem: Terrain) -> Terrain:
+    """The top heightfield of a 3D terrain as a raster on its columns (NaN outside the
     domain), with the DEM's nodata value and tags."""
-    geometry = terrain.voxels.geometry
+    geometry = _geometry(terrain)
     dx, dy, _ = geometry.size
     west, north, _ = geometry.origin
     elevation = np.where(terrain.grid.valid, terrain.surface(), np.nan)
-    return Terrain(elevation, dx, dy, crs_wkt, Affine(dx, 0.0, west, 0.0, -dy, north), dem.nodata, dict(dem.tags))
+    transform = Affine(dx, 0.0, west, 0.0, -dy, north)
+    return Terrain(elevation, dx, dy, crs_wkt, transform, dem.nodata, dict(dem.tags))
 
 
 def _volume_provenance(volume: VoxelSetup) -> dict[str, Any]:
     terrain = volume.terrain
-    geometry = terrain.voxels.geometry
+    geometry = _geometry(terrain)
     info: dict[str, Any] = {"volume": volume.description, "voxel_size_m": list(geometry.size),
                             "voxel_shape_rows_columns_layers": list(geometry.shape),
                             "volume_origin_west_north_bottom_m": list(geometry.origin)}
@@ -654,7 +809,7 @@ def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] |
     """Run the particles, write the outputs, and return a one-line summary."""
     import numba
 
-    from unerode_cli.particles import run
+    from unerode_cli.particles import run_kinds
 
     job, dem = prepared.job, prepared.surface
     for note in prepared.notes:
@@ -663,18 +818,20 @@ def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] |
     if job.threads is not None:
         numba.set_num_threads(min(job.threads, numba.config.NUMBA_NUM_THREADS))
     start = time.perf_counter()
-    result = run(prepared.terrain, prepared.params, prepared.emission, iterations=prepared.iterations,
-                 seed=job.seed, velocity=prepared.velocity, sea_level=job.sea_level,
-                 paths=job.path_count if job.paths is not None else 0, path_stride=job.path_stride,
-                 on_iteration=on_iteration)
+    result = run_kinds(prepared.terrain, prepared.kinds, iterations=prepared.iterations, seed=job.seed,
+                       sea_level=job.sea_level, paths=job.path_count if job.paths is not None else 0,
+                       path_stride=job.path_stride, on_iteration=on_iteration, apply=job.apply)
+    per_iteration = prepared.provenance["particles_per_iteration"]
     seconds = time.perf_counter() - start
     DivergenceGuard(dem.elevation, hint="lower the particle count or the erosion rates").check(
         result.elevation, 0.0, f"after {prepared.iterations} iterations")
     stats = statistics(result, dem, seconds, prepared.terrain)
+    mesh_preview = prepared.volume is not None and prepared.outputs.preview is not None and _meshes()
     if prepared.volume is not None:
-        _write_volume(result, prepared, stats)
+        _write_volume(result, prepared, stats, mesh_preview)
     surface = dem.with_elevation(result.elevation)
-    save(surface, prepared.outputs, COMMAND, prepared.provenance, stats, seed=job.seed)
+    save(surface, prepared.outputs, COMMAND, prepared.provenance, stats, seed=job.seed,
+         elevation_preview=not mesh_preview)
     outputs = prepared.outputs
     if job.change_map is not None:
         save(dem.with_elevation(result.dh), Outputs(job.change_map, outputs.options, outputs.overwrite),
@@ -685,35 +842,43 @@ def run_job(prepared: PreparedParticleJob, on_iteration: Callable[[int], None] |
     if prepared.layers_out is not None:
         _write_layers(result, prepared, stats)
     if job.paths is not None:
-        write_paths(job.paths, result.paths, dem, prepared.emission.count)
+        write_paths(job.paths, result.paths, dem, per_iteration)
     b = result.budget
     return (f"{COMMAND}: {prepared.provenance['preset']} preset on {prepared.provenance['representation']}, "
             f"{result.stats.particles} particles "
-            f"({prepared.iterations} × {prepared.emission.count}), {result.stats.impacts} impacts in "
+            f"({prepared.iterations} × {per_iteration}), {result.stats.impacts} impacts in "
             f"{seconds:.2f} s; detached {b.detached:.4g} m³, deposited {b.deposited:.4g} m³, lost at "
             f"edges {b.lost:.4g} m³, suspended {b.suspended:.4g} m³, emitted {b.emitted:.4g} m³ "
             f"(residual {stats['mass_budget_m3']['relative_residual']:.1e}); wrote {outputs.path}")
 
 
 def statistics(result: ParticleRun, dem: Terrain, seconds: float, terrain: ParticleTerrain) -> dict[str, Any]:
-    """Run statistics for the sidecar: mass budget (m³), counts, Δh and speed; on voxels the
-    change of the volume's matter, what left the grid and the hits of binary voxels."""
+    """Run statistics for the sidecar: mass budget (m³), counts, Δh and speed; on 3D terrains
+    the change of the volume's matter, what left the grid and the hits of binary voxels; with
+    several kinds of particles the budget and counts of each."""
     b = result.budget
     scale = b.detached + b.emitted
     valid = dem.grid.valid
     dh = result.dh[valid]
     change = math.fsum(dh) * dem.dx * dem.dy
     extra: dict[str, Any] = {}
-    if isinstance(result.terrain, DensityTerrain | BinaryTerrain):
+    if isinstance(result.terrain, DensityTerrain | BinaryTerrain | SdfTerrain):
         change = result.terrain.matter() - terrain.matter()
         extra["top_surface_volume_change"] = math.fsum(dh) * dem.dx * dem.dy
     if isinstance(result.terrain, DensityTerrain):
         extra["left_grid"] = result.terrain.left
     extra_stats: dict[str, Any] = {}
-    if isinstance(result.terrain, BinaryTerrain):
+    if isinstance(result.terrain, BinaryTerrain) and isinstance(terrain, BinaryTerrain):
         extra_stats["binary_voxels"] = dict(zip(
             ("erosion_hits", "deposition_hits", "voxels_removed", "voxels_added", "voxels_transformed",
              "unplaced_hits"), (int(v) for v in result.terrain.counters), strict=True))
+        extra_stats["binary_voxels"]["hits_held_change"] = int(
+            result.terrain.voxels.hits.sum(dtype=np.int64) - terrain.voxels.hits.sum(dtype=np.int64))
+    if len(result.kinds) > 1:
+        extra_stats["kinds"] = [{"kind": k.name, "particles": k.stats.particles, "impacts": k.stats.impacts,
+                                 "detached_m3": k.budget.detached, "deposited_m3": k.budget.deposited,
+                                 "lost_at_edges_m3": k.budget.lost, "suspended_m3": k.budget.suspended,
+                                 "emitted_m3": k.budget.emitted} for k in result.kinds]
     return {
         "mass_budget_m3": {
             "detached": b.detached, "deposited": b.deposited, "suspended": b.suspended,
@@ -726,7 +891,12 @@ def statistics(result: ParticleRun, dem: Terrain, seconds: float, terrain: Parti
             "emitted + detached - deposited - suspended - lost_at_edges = residual (0 up to rounding); "
             "the terrain's volume changes by deposited - detached (density voxels: by that less "
             "'left_grid', what went through the grid's top or bottom; binary voxels flip whole voxels "
-            "from hit counts, so their change only follows it). 'emitted' is matter added by design "
+            "at hits_threshold hits, so their change only follows it: (voxels_removed + voxels_transformed "
+            "- voxels_added) * hits_threshold = erosion_hits - deposition_hits - hits_held_change exactly, "
+            "and (erosion_hits - deposition_hits) / hits_per_voxel voxel volumes is detached - deposited "
+            "but for the hits rounded down and unplaced; implicit terrains: the ground of the "
+            "node cache, which misses what metaballs changed beyond the grid). 'emitted' is matter added "
+            "by design "
             "(initial_load, e.g. the volcano preset), 'suspended' matter removed by design "
             "(keep_suspended, e.g. the coastal preset); 'dropped' is the part of 'deposited' left "
             "where particles died."),
@@ -738,22 +908,50 @@ def statistics(result: ParticleRun, dem: Terrain, seconds: float, terrain: Parti
     }
 
 
-def _write_volume(result: ParticleRun, prepared: PreparedParticleJob, stats: dict[str, Any]) -> None:
-    """--volume-out (the altered volume) and --mesh (its ground's surface mesh)."""
+def _meshes() -> bool:
+    """Whether surface meshes can be made (scikit-image is installed)."""
+    try:
+        marching_cubes_function()
+    except MeshExtraMissing:
+        return False
+    return True
+
+
+def _write_volume(result: ParticleRun, prepared: PreparedParticleJob, stats: dict[str, Any],
+                  mesh_preview: bool) -> None:
+    """--volume-out (the altered volume), --mesh (its ground's surface mesh) and, when
+    ``mesh_preview``, --preview as a rendered view of that mesh, where overhangs and caves show
+    (instead of the hillshade of the top surface, which is written without scikit-image)."""
     job, volume = prepared.job, prepared.volume
     terrain = result.terrain
-    assert volume is not None and isinstance(terrain, DensityTerrain | BinaryTerrain)
+    assert volume is not None and isinstance(terrain, DensityTerrain | BinaryTerrain | SdfTerrain)
+    voxels = terrain.density_voxels() if isinstance(terrain, SdfTerrain) else terrain.voxels
     if job.volume_out is not None:
-        write_voxels(job.volume_out, VoxelFile(terrain.voxels, volume.crs_wkt, volume.material_names))
+        write_voxels(job.volume_out, VoxelFile(voxels, volume.crs_wkt, volume.material_names))
+    preview = prepared.outputs.preview if mesh_preview else None
+    if job.mesh is None and preview is None:
+        return
+    mesh = ground_mesh(voxels)
+    west, north, bottom = voxels.geometry.origin
+    south = north - voxels.geometry.shape[0] * voxels.geometry.size[1]
     if job.mesh is not None:
-        mesh = ground_mesh(terrain.voxels)
-        west, north, bottom = terrain.voxels.geometry.origin
-        south = north - terrain.voxels.geometry.shape[0] * terrain.voxels.geometry.size[1]
-        write_mesh(job.mesh, mesh, overwrite=True, origin=(west, south, bottom), crs_wkt=volume.crs_wkt or None,
+        write_mesh(job.mesh, mesh, overwrite=True, origin=(west, south, bottom),
+                   crs_wkt=volume.crs_wkt or None,
                    comments=(f"unerode-cli {COMMAND}: {volume.description}",
                              "material: the voxel's material index (0 without materials)"))
         stats["mesh"] = {"file": str(job.mesh), "vertices": len(mesh.vertices), "faces": len(mesh.faces),
                          "enclosed_volume_m3": enclosed_volume(mesh)}
+    if preview is not None:
+        with_materials = bool(volume.material_names)
+        low = float(mesh.vertices[:, 2].min(initial=0.0))
+        values = mesh.materials if with_materials else mesh.vertices[:, 2] - low
+        label = ("material: " + ", ".join(f"{i} {n}" for i, n in enumerate(volume.material_names))
+                 if with_materials else f"height above {bottom + low:.0f} m (m)")
+        normals = vertex_normals(mesh.vertices, mesh.faces)
+        with atomic_path(preview) as tmp:
+            save_particles_preview(mesh.vertices, normals, values, tmp, label, min(voxels.geometry.size),
+                                   title=f"{prepared.outputs.path.name}: {volume.description}",
+                                   categorical=with_materials)
 
 
 def _write_layers(result: ParticleRun, prepared: PreparedParticleJob, stats: dict[str, Any]) -> None:

@@ -2,11 +2,13 @@
 
 Each particle is emitted, moved (``physics``), detaches and deposits at every impact, and dies
 at the domain's edge (its load is lost), when it has settled, or at the end of its lifetime
-(it then leaves its load where it is). Particles are traced in parallel (``prange``) against
-a terrain frozen for the batch; what each does to the terrain is recorded as impact events
-(x, y, z, Q) in its own row, so the caller applies them in particle order and the result does
-not depend on the number of threads. Each particle draws its random numbers from its own
-stream, keyed by (seed, iteration, particle index).
+(it then leaves its load where it is, on the ground below it). Particles are traced in
+parallel (``prange``) against a terrain frozen for the batch; what each does to the terrain is
+recorded as impact events (x, y, z, Q) in its own row, so the caller applies them in particle
+order and the result does not depend on the number of threads. Each particle draws its random
+numbers from its own stream, keyed by (seed, iteration, particle index). Per-impact application (003 §3: the
+terrain altered at each collision) traces the particles one after the other instead, each
+impact applied at once to the ground the tracer reads (``live``: ``LIVE_*``).
 
 The motion is one code path for every representation; only the ground queries (003 §4: is the
 particle in the ground, where did its step enter it, the surface point and normal there, the
@@ -27,6 +29,7 @@ from unerode_cli.particles import terrain_kernels as tk
 from unerode_cli.particles import voxel_kernels as vk
 from unerode_cli.particles.emission import RAIN
 from unerode_cli.particles.medium import MEANDER, NONE, UNIFORM
+from unerode_cli.volume import voxel_kernels as vox
 
 SETTLED, EDGE, EXPIRED = 0, 1, 2
 #: Ground kinds of the tracer (``TracingSnapshot.kind``).
@@ -36,6 +39,15 @@ HEIGHTFIELD, VOXELS = 0, 1
 #: of the deposit left where the particle died.
 B_EMITTED, B_DETACHED, B_DEPOSITED, B_LOST, B_SUSPENDED, B_DROPPED = 0, 1, 2, 3, 4, 5
 N_BUDGET = 6
+#: Per-impact application (``live[0]``): off (frozen terrain, parallel), or impacts applied at
+#: once to a heightfield, to density voxels or to binary voxels (serial).
+LIVE_OFF, LIVE_HEIGHTFIELD, LIVE_DENSITY, LIVE_BINARY = 0, 1, 2, 3
+
+
+def live_off():
+    """The ``live`` argument of a frozen terrain (its arrays unused)."""
+    return (LIVE_OFF, np.zeros((0, 0, 0)), np.zeros((0, 0, 0), np.bool_), np.zeros((0, 0, 0), np.int32), 0.0,
+            0, (-1, np.zeros(1, np.int16), np.zeros(0)), np.zeros(1), np.zeros(vox.N_COUNTERS, np.int64))
 
 
 @numba.njit(cache=True, inline="always")
@@ -167,6 +179,33 @@ def _down_onto(gkind, h, vol, x, y, z, g, dx, dy, dz, z0):
     return x, y, z, g
 
 
+@numba.njit(cache=True)
+def _apply_live(live, h, valid, vol, vmat, dx, dy, dz, z0, x, y, z, q, radius):
+    """Apply an impact (x, y, z in m, Q m³ > 0 deposits, R m) at once to the ground the tracer
+    reads (per-impact application): ``live`` = (mode ``LIVE_*``, density float64[rows,
+    columns, layers], solid mask, hit counts, α, C, material rules, float64[1] matter that left
+    the grid (m³), int64 counters of binary voxels); the material index is ``vmat``. A
+    heightfield takes 003 Eq. 9 as ``terrain_kernels.apply_heightfield`` does; voxels take
+    ``volume.voxel_kernels.density_event`` / ``binary_event``, then the tracer's level and top
+    surface are refreshed around the impact."""
+    mode, f, solid, hits, alpha, threshold, rules, left, counters = live
+    if mode == LIVE_HEIGHTFIELD:
+        rows, cols, weights = tk.footprint_buffers(radius, dx, dy)
+        count, total = tk.footprint(valid, x, y, radius, dx, dy, rows, cols, weights)
+        scale = q / (dx * dy * total)
+        for k in range(count):
+            h[rows[k], cols[k]] += scale * weights[k]
+        return
+    index, weight = vox.sphere_buffers(radius, dx, dy, dz)
+    if mode == LIVE_DENSITY:
+        left[0] += vox.density_event(f, vmat, valid, dx, dy, dz, z0, x, y, z, q, radius, rules, index, weight)
+        vk.refresh(vol, h, valid, f, False, x, y, radius, dx, dy, z0, dz)
+    else:
+        vox.binary_event(solid, hits, vmat, valid, dx, dy, dz, z0, x, y, z, q, radius, alpha, threshold,
+                         rules, index, weight, counters)
+        vk.refresh(vol, h, valid, solid, True, x, y, radius, dx, dy, z0, dz)
+
+
 @numba.njit(cache=True, inline="always")
 def _record(path, n, stride_hit, x, y, z, t, dx, dy):
     """Append (column, row, z, t) to a path buffer when ``stride_hit``; returns the new length.
@@ -182,8 +221,9 @@ def _record(path, n, stride_hit, x, y, z, t, dx, dy):
 def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
                    gkind, vol, vmat, z0, dz,
                    fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
-                   events, budget, path, path_stride):
-    """Trace particle ``index`` of ``iteration`` from emission to death on the frozen terrain.
+                   events, budget, path, path_stride, live):
+    """Trace particle ``index`` of ``iteration`` from emission to death on the frozen terrain,
+    or with ``live`` (``_apply_live``) on one that each of its impacts alters at once.
 
     The ground: ``gkind`` ``HEIGHTFIELD`` reads the height ``h`` and the material index ``mat``
     per cell; ``VOXELS`` reads the level ``vol`` (float32[rows, columns, layers], layer k's
@@ -265,6 +305,11 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
                     events[count, 0], events[count, 1], events[count, 2] = x, y, z
                     events[count, 3] = q_dep - q_det
                 count += 1
+                if live[0] != LIVE_OFF:  # the particle goes on from the altered surface
+                    _apply_live(live, h, valid, vol, vmat, dx, dy, dz, z0, x, y, z, q_dep - q_det, radius)
+                    ground = _ground(gkind, h, vol, z0, dz, col, row, z)
+                    x, y, z, ground, _, _, _ = _onto(gkind, h, vol, x, y, z, ground, dx, dy, dz, z0)
+                    col, row = x / dx, y / dy
             # resting contact below twice the normal speed the weight added in the last step
             stick = stick2[medium] * dt
             vx, vy, vz, sliding = ph.bounce(vx, vy, vz, nxn, nyn, nzn, restitution, stick)
@@ -317,29 +362,54 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
         budget[B_SUSPENDED] = keep
         put = load - keep
         if put > 0.0:
+            zg = z  # a particle that dies in flight leaves its load on the ground below
+            if gkind != HEIGHTFIELD:
+                zg = vk.ground_below(vol, x, y, z, dx, dy, dz, z0)
             budget[B_DEPOSITED] += put
             budget[B_DROPPED] = put
             if count < events.shape[0]:
-                events[count, 0], events[count, 1], events[count, 2], events[count, 3] = x, y, z, put
+                events[count, 0], events[count, 1], events[count, 2], events[count, 3] = x, y, zg, put
             count += 1
+            if live[0] != LIVE_OFF:
+                _apply_live(live, h, valid, vol, vmat, dx, dy, dz, z0, x, y, zg, put, radius)
     if step % path_stride != 0:
         n_path = _record(path, n_path, True, x, y, z, t, dx, dy)
     return count, radius, fate, impacts, n_path
 
 
+@numba.njit(cache=True)
+def _trace_row(i, indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy, gkind, vol, vmat, z0,
+               dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0, events, path_slot,
+               path_buf, path_stride, live, no_path, counts, radii, fates, impacts, budget, path_len):
+    """Trace particle ``indices[i]`` of a batch into row i of ``trace_batch``'s results."""
+    slot = path_slot[i]
+    path = path_buf[slot] if slot >= 0 else no_path
+    count, radius, fate, n_imp, n_path = trace_particle(
+        indices[i], iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
+        gkind, vol, vmat, z0, dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
+        events[i], budget[i], path, path_stride, live)
+    counts[i] = count
+    radii[i] = radius
+    fates[i] = fate
+    impacts[i] = n_imp
+    if slot >= 0:
+        path_len[slot] = n_path
+
+
 @numba.njit(cache=True, parallel=True)
 def trace_batch(indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
-                gkind, vol, vmat, z0, dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
-                events, path_slot, path_buf, path_stride):
-    """Trace the particles ``indices`` (int64[n], indices within ``iteration``) in parallel
-    (the terrain's arguments are those of ``trace_particle``).
+                gkind, vol, vmat, z0, dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread,
+                ev0, events, path_slot, path_buf, path_stride, live):
+    """Trace the particles ``indices`` (int64[n], indices within ``iteration``) in parallel on
+    the frozen terrain, or one after the other in their order when ``live`` applies each
+    impact at once (the terrain's arguments are those of ``trace_particle``).
 
     Args:
         events: float64[≥ n, capacity, 4] buffer (its content is overwritten; the caller keeps
             it from batch to batch) for the events of particle i in row i; a particle with
             more than ``capacity`` events reports its full count, and the caller traces it
             again with a larger buffer (the result is the same: the terrain is frozen and the
-            particle's random stream is its own).
+            particle's random stream is its own). Per-impact application needs no events.
         path_slot: int64[n], row of ``path_buf`` (float64[k, m, 4]) to record the particle's
             path into, or −1.
 
@@ -355,19 +425,20 @@ def trace_batch(indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, d
     budget = np.zeros((n, N_BUDGET))
     path_len = np.zeros(path_buf.shape[0], np.int64)
     no_path = np.zeros((0, 4))
-    for i in numba.prange(n):
-        slot = path_slot[i]
-        path = path_buf[slot] if slot >= 0 else no_path
-        count, radius, fate, n_imp, n_path = trace_particle(
-            indices[i], iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy,
-            gkind, vol, vmat, z0, dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0,
-            events[i], budget[i], path, path_stride)
-        counts[i] = count
-        radii[i] = radius
-        fates[i] = fate
-        impacts[i] = n_imp
-        if slot >= 0:
-            path_len[slot] = n_path
+    # a parallel loop takes arrays, not tuples of them: the live state goes in unpacked
+    mode, f, solid, hits, alpha, threshold, (deposit, on_erosion, erodibility), left, n_hits = live
+    parallel = mode == LIVE_OFF
+    for i in numba.prange(n if parallel else 0):
+        _trace_row(i, indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy, gkind, vol, vmat, z0,
+                   dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0, events,
+                   path_slot, path_buf, path_stride,
+                   (mode, f, solid, hits, alpha, threshold, (deposit, on_erosion, erodibility), left, n_hits),
+                   no_path, counts, radii, fates, impacts, budget, path_len)
+    for i in range(0 if parallel else n):
+        _trace_row(i, indices, iteration, seed, phys, h, valid, mat, keps, tauc, dx, dy, gkind, vol, vmat, z0,
+                   dz, fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts, espread, ev0, events,
+                   path_slot, path_buf, path_stride, live, no_path, counts, radii, fates, impacts, budget,
+                   path_len)
     return events, counts, radii, fates, impacts, budget, path_len
 
 

@@ -1,9 +1,13 @@
 """Particle erosion runs (003 §3–5): ``run`` emits particles iteration after iteration, traces
 each batch against the terrain as it was at the start of the iteration, and applies the
-particles' impacts in particle order.
+particles' impacts in particle order. ``run_kinds`` does the same for several kinds of
+particles at once (003 Fig. 8: rain, wind and a river in one run), each with its own
+parameters, emission and medium velocity: within an iteration the kinds are traced in their
+given order, every one against the terrain as it stood at the start of the iteration, and
+their impacts applied kind after kind.
 
-Determinism: a particle's random numbers come from its own stream keyed by (seed, iteration,
-particle index) and the terrain is frozen while a batch is traced, so what a particle does does
+Determinism: a particle's random numbers come from its own stream keyed by (seed of its kind,
+iteration, particle index) and the terrain is frozen while a batch is traced, so what a particle does does
 not depend on the other particles nor on the threads; its impacts are then applied in a fixed
 order. The result for a seed is bit-identical for any number of numba threads.
 
@@ -13,15 +17,17 @@ The numba kernels are imported on first use.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 
 import numpy as np
 
+from unerode_cli.grid import Grid
 from unerode_cli.particles.emission import Emission
 from unerode_cli.particles.medium import STILL, VelocityField
 from unerode_cli.particles.parameters import ParticleParams
-from unerode_cli.particles.terrain import Material, Terrain
+from unerode_cli.particles.terrain import Material, Terrain, TracingSnapshot
 
 #: Particles traced per kernel call (bounds the memory of the event buffers); any value gives
 #: the same result, since impacts are applied in particle order against a frozen terrain.
@@ -31,6 +37,11 @@ PILOT = 1024
 #: Points kept per sampled path (the last one is always the particle's final position).
 MAX_PATH_POINTS = 4096
 _FATES = ("settled", "edge", "expired")
+#: When impacts alter the terrain: after each iteration, all the particles of the iteration
+#: traced in parallel on the terrain as it stood before it; or at each impact (003 §3), the
+#: particles traced one after the other, serially.
+PER_ITERATION, PER_IMPACT = "per-iteration", "per-impact"
+APPLY_MODES = (PER_ITERATION, PER_IMPACT)
 
 
 @dataclass(frozen=True)
@@ -104,6 +115,7 @@ class ParticleRun:
         budget: the volumes moved (m³).
         stats: particle and impact counts.
         paths: the sampled paths, in particle order.
+        kinds: what each kind of particles did (one entry per kind of ``run_kinds``).
     """
 
     terrain: Terrain
@@ -112,6 +124,35 @@ class ParticleRun:
     budget: ParticleBudget
     stats: ParticleStats
     paths: list[ParticlePath]
+    kinds: tuple[KindRun, ...] = ()
+
+
+@dataclass(frozen=True)
+class ParticleKind:
+    """One kind of particles of a run (003 Fig. 8: several phenomena at once).
+
+    Attributes:
+        params: its physical parameters (``k_eps`` and ``tau_c`` are those of a terrain
+            without materials of its own).
+        emission: where and how many of them start per iteration.
+        velocity: the medium velocity field they feel (003 Eq. 8); None = still medium.
+        name: a label for the results (e.g. the preset's name).
+    """
+
+    params: ParticleParams
+    emission: Emission
+    velocity: VelocityField | None = None
+    name: str = ""
+
+
+@dataclass(frozen=True)
+class KindRun:
+    """What one kind of particles did in a run: its ``name``, the volumes it moved (m³) and
+    its counts."""
+
+    name: str
+    budget: ParticleBudget
+    stats: ParticleStats
 
 
 def _packed(params: ParticleParams, sea_level: float | None) -> np.ndarray:
@@ -154,23 +195,41 @@ def _check_run_args(iterations: int, seed: int, paths: int, path_stride: int,
         raise ValueError(f"the sea level must be finite (m), got {sea_level}")
 
 
+def kind_seed(seed: int, position: int) -> int:
+    """The seed of the kind at ``position`` (0, 1, …) of a run with ``seed``: the seed itself for
+    the first kind (so a run of one kind is ``run``'s), else a counter-based hash of the two
+    (``physics.stream_key`` with an iteration no run reaches, kept to 63 bits as the kernels
+    take it), so that the kinds' particles draw independent numbers."""
+    if position == 0:
+        return int(seed)
+    from unerode_cli.particles.physics import stream_key
+
+    return int(stream_key(np.uint64(seed), np.uint64(2**64 - 1), np.uint64(position))) >> 1
+
+
 def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterations: int = 1,
         seed: int = 0, velocity: VelocityField | None = None, sea_level: float | None = None,
         paths: int = 0, path_stride: int = 1,
-        on_iteration: Callable[[int], None] | None = None) -> ParticleRun:
+        on_iteration: Callable[[int], None] | None = None, apply: str = PER_ITERATION) -> ParticleRun:
     """Erode ``terrain`` with particles (003 §3–4).
 
     Each iteration emits ``emission.count`` particles, traces all of them against the terrain
     as it stands (frozen during the iteration), then applies their impacts in particle order:
-    003 Eq. 9 on a heightfield, Eq. 10 on layered terrains, Eq. 13 on density voxels and Eq. 14
-    on binary voxels. Particles die at the domain's edge
+    003 Eq. 9 on a heightfield, Eq. 10 on layered terrains, Eq. 11 on implicit terrains, Eq. 13
+    on density voxels and Eq. 14 on binary voxels. Particles die at the domain's edge
     (their load is lost), when settled (speed < ``rest_speed`` on the ground) or after their
     ``lifetime``; a dying particle deposits its load where it is, but for the fraction
     ``keep_suspended``.
 
+    With ``apply`` ``PER_IMPACT`` (003 §3's order) each impact alters the terrain at once, so
+    a particle meets what its own earlier impacts and every earlier particle did; the particles
+    are then traced one after the other on one thread (serial, and deterministic too), at the
+    cost of the parallel tracing. Heightfields and density and binary voxels only. Both modes
+    conserve mass alike.
+
     Args:
-        terrain: a ``HeightfieldTerrain``, ``LayeredTerrain``, ``DensityTerrain`` or
-            ``BinaryTerrain``; not modified.
+        terrain: a ``HeightfieldTerrain``, ``LayeredTerrain``, ``DensityTerrain``,
+            ``BinaryTerrain`` or ``SdfTerrain``; not modified.
         params: physical parameters (``ParticleParams``; ``presets.preset_params`` builds them
             from 003 Table 1). ``k_eps`` and ``tau_c`` are the heightfield's material.
         emission: where and how many particles start per iteration.
@@ -182,6 +241,7 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
         paths: number of particle paths to sample, evenly over the run's particles.
         path_stride: record a sampled path every this many steps (and at death).
         on_iteration: called with the number of finished iterations after each one (progress).
+        apply: ``PER_ITERATION`` (default) or ``PER_IMPACT``.
 
     Returns:
         The new terrain, its surface and change, the mass budget, counts and sampled paths.
@@ -190,71 +250,178 @@ def run(terrain: Terrain, params: ParticleParams, emission: Emission, *, iterati
         ValueError: a parameter out of range, an emission or velocity field that does not fit
             the grid, or bad run arguments (one sentence).
     """
+    return run_kinds(terrain, (ParticleKind(params, emission, velocity),), iterations=iterations, seed=seed,
+                     sea_level=sea_level, paths=paths, path_stride=path_stride, on_iteration=on_iteration,
+                     apply=apply)
+
+
+@dataclass
+class _KindTracer:
+    """A kind's kernel arguments and running totals in a run: its particles are numbered from
+    ``offset`` within an iteration, ``sums`` holds the budget columns of each batch."""
+
+    kind: ParticleKind
+    seed: int
+    offset: int
+    phys: np.ndarray
+    emission_arrays: tuple
+    field_arrays: tuple
+    default: Material
+    capacity: int = 32
+    sums: list[list[float]] = dataclass_field(default_factory=list)
+    impacts: int = 0
+    fates: np.ndarray = dataclass_field(default_factory=lambda: np.zeros(3, np.int64))
+
+    @property
+    def count(self) -> int:
+        return int(self.kind.emission.count)
+
+    @property
+    def material_key(self) -> tuple[float, float]:
+        return self.default.k_eps, self.default.tau_c
+
+
+def _budget(batches: list[list[float]]) -> ParticleBudget:
+    """The budget of per-batch sums (rows: batches, columns ``kernels.B_*``)."""
     from unerode_cli.particles import kernels
 
-    grid = terrain.grid
-    params.validate(grid)
-    emission.validate(grid)
-    velocity = STILL if velocity is None else velocity
-    velocity.validate(grid)
-    _check_run_args(iterations, seed, paths, path_stride, sea_level)
-    phys = _packed(params, sea_level)
-    ekind, ecdf, ecells, epts, ev0 = emission.kernel_arrays(grid)
-    fkind, fmedium, fscal, fbands = velocity.kernel_arrays(grid)
-    default = Material("heightfield", params.k_eps, params.tau_c)
-    count = int(emission.count)
-    total = iterations * count
-    chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
-    work = terrain.copy()
-    capacity = 32
-    buffer = np.empty((0, 0, 4))  # event rows of a batch, kept from batch to batch
-    sums: list[list[float]] = [[] for _ in range(kernels.N_BUDGET)]
-    impacts = 0
-    fate_counts = np.zeros(3, np.int64)
-    sampled: list[ParticlePath] = []
-    for iteration in range(iterations):
-        snap = work.tracing_snapshot(default)
+    total = [math.fsum(batch[k] for batch in batches) for k in range(kernels.N_BUDGET)]
+    return ParticleBudget(
+        emitted=total[kernels.B_EMITTED], detached=total[kernels.B_DETACHED],
+        deposited=total[kernels.B_DEPOSITED], suspended=total[kernels.B_SUSPENDED],
+        lost=total[kernels.B_LOST], dropped=total[kernels.B_DROPPED])
+
+
+def _stats(particles: int, impacts: int, fates: np.ndarray) -> ParticleStats:
+    return ParticleStats(particles, impacts, int(fates[0]), int(fates[1]), int(fates[2]))
+
+
+def _tracers(kinds: Sequence[ParticleKind], grid: Grid, seed: int,
+             sea_level: float | None) -> list[_KindTracer]:
+    """The kinds checked against the grid, with their kernel arguments."""
+    if not kinds:
+        raise ValueError("a run needs at least one kind of particles")
+    tracers = []
+    offset = 0
+    for position, kind in enumerate(kinds):
+        velocity = STILL if kind.velocity is None else kind.velocity
+        for part in (kind.params, kind.emission, velocity):
+            part.validate(grid)
+        default = Material(kind.name or "heightfield", kind.params.k_eps, kind.params.tau_c)
+        tracers.append(_KindTracer(kind, kind_seed(seed, position), offset, _packed(kind.params, sea_level),
+                                   kind.emission.kernel_arrays(grid), velocity.kernel_arrays(grid), default))
+        offset += int(kind.emission.count)
+    return tracers
+
+
+class _Batches:
+    """Traces a kind's particles of an iteration batch by batch and applies their impacts to
+    the working terrain, sampling the chosen paths; keeps the event buffer between batches."""
+
+    def __init__(self, work: Terrain, chosen: np.ndarray, per_iteration: int, path_stride: int) -> None:
+        self.work, self.chosen = work, chosen
+        self.per_iteration, self.path_stride = per_iteration, path_stride
+        self.buffer = np.empty((0, 0, 4))
+        self.paths: list[ParticlePath] = []
+
+    def run(self, tracer: _KindTracer, snap: TracingSnapshot, iteration: int,
+            live: tuple | None = None) -> None:
+        """Trace the kind's particles of ``iteration``; with ``live`` (``Terrain.live_state``)
+        each impact alters the snapshot at once, and no events are kept nor applied."""
+        from unerode_cli.particles import kernels
+
+        live = kernels.live_off() if live is None else live
+        per_impact = live[0] != kernels.LIVE_OFF
+        grid = self.work.grid
+        ekind, ecdf, ecells, epts, ev0 = tracer.emission_arrays
         frozen = (snap.surface, grid.valid, snap.material, snap.k_eps, snap.tau_c, grid.dx, grid.dy,
-                  *snap.ground_arguments(), fkind, fmedium, fscal, fbands, ekind, ecdf, ecells, epts,
-                  float(emission.spread), ev0)
-        for start, stop in _batches(count, first=PILOT if iteration == 0 else BATCH):
+                  *snap.ground_arguments(), *tracer.field_arrays, ekind, ecdf, ecells, epts,
+                  float(tracer.kind.emission.spread), ev0)
+        for start, stop in _batches(tracer.count, first=PILOT if iteration == 0 else BATCH):
             indices = np.arange(start, stop, dtype=np.int64)
-            numbers = iteration * count + indices
             slot = np.full(indices.size, -1, np.int64)
-            picked = np.isin(numbers, chosen)
+            picked = np.isin(iteration * self.per_iteration + tracer.offset + indices, self.chosen)
             slot[picked] = np.arange(picked.sum())
             path_buf = np.zeros((int(picked.sum()), MAX_PATH_POINTS, 4))
-            if buffer.shape[0] < indices.size or buffer.shape[1] < capacity:
-                buffer = np.empty((max(buffer.shape[0], indices.size), max(buffer.shape[1], capacity), 4))
+            rows, width = max(self.buffer.shape[0], indices.size), max(self.buffer.shape[1], tracer.capacity)
+            if self.buffer.shape[:2] != (rows, width):
+                self.buffer = np.empty((rows, width, 4))
             events, counts, radii, fates, n_imp, budget, path_len = kernels.trace_batch(
-                indices, iteration, seed, phys, *frozen, buffer[: indices.size], slot, path_buf, path_stride)
-            over = np.flatnonzero(counts > buffer.shape[1])
+                indices, iteration, tracer.seed, tracer.phys, *frozen,
+                np.empty((indices.size, 0, 4)) if per_impact else self.buffer[: indices.size], slot,
+                path_buf, self.path_stride, live)
+            over = np.flatnonzero(counts > (np.inf if per_impact else self.buffer.shape[1]))
             retraced_row = np.full(indices.size, -1, np.int64)
             retraced = np.zeros((0, 1, 4))
             if over.size:
                 larger = np.empty((over.size, int(counts[over].max()), 4))
-                retraced = kernels.trace_batch(indices[over], iteration, seed, phys, *frozen, larger,
-                                               np.full(over.size, -1, np.int64), np.zeros((0, 1, 4)),
-                                               path_stride)[0]
+                retraced = kernels.trace_batch(indices[over], iteration, tracer.seed, tracer.phys, *frozen,
+                                               larger, np.full(over.size, -1, np.int64), np.zeros((0, 1, 4)),
+                                               self.path_stride, live)[0]
                 retraced_row[over] = np.arange(over.size)
-            flat = kernels.flatten(events, counts, radii, retraced_row, retraced)
-            work.apply(*(np.ascontiguousarray(flat[:, k]) for k in range(5)))
-            capacity = int(min(1024, max(16, 2 ** math.ceil(math.log2(max(1.0, np.percentile(counts, 90)))))))
-            for k in range(kernels.N_BUDGET):
-                sums[k].append(math.fsum(budget[:, k]))
-            impacts += int(n_imp.sum())
-            fate_counts += np.bincount(fates, minlength=3)
+            if not per_impact:
+                flat = kernels.flatten(events, counts, radii, retraced_row, retraced)
+                self.work.apply(*(np.ascontiguousarray(flat[:, k]) for k in range(5)))
+            typical = max(1.0, float(np.percentile(counts, 90)))
+            tracer.capacity = int(min(1024, max(16, 2 ** math.ceil(math.log2(typical)))))
+            tracer.sums.append([math.fsum(budget[:, k]) for k in range(kernels.N_BUDGET)])
+            tracer.impacts += int(n_imp.sum())
+            tracer.fates += np.bincount(fates, minlength=3)
             for i, s in zip(np.flatnonzero(picked), slot[picked], strict=True):
-                sampled.append(ParticlePath(iteration, int(indices[i]), path_buf[s, : path_len[s]].copy(),
-                                            _FATES[fates[i]]))
+                self.paths.append(ParticlePath(iteration, int(tracer.offset + indices[i]),
+                                               path_buf[s, : path_len[s]].copy(), _FATES[fates[i]]))
+
+
+def run_kinds(terrain: Terrain, kinds: Sequence[ParticleKind], *, iterations: int = 1, seed: int = 0,
+              sea_level: float | None = None, paths: int = 0, path_stride: int = 1,
+              on_iteration: Callable[[int], None] | None = None, apply: str = PER_ITERATION) -> ParticleRun:
+    """Erode ``terrain`` with several kinds of particles at once (003 Fig. 8); ``run``'s
+    arguments otherwise.
+
+    Each iteration traces the kinds in their order, each against the terrain as it stood at
+    the start of the iteration (one frozen snapshot per distinct K_ε, τ_c of the kinds), and
+    applies their impacts kind after kind, in particle order. Kind j's particles draw from
+    streams keyed by ``kind_seed(seed, j)``: what a kind does in one iteration is what ``run``
+    does with that seed on the same terrain.
+
+    With ``apply`` ``PER_IMPACT`` the kinds' particles are traced one after the other, each on
+    the terrain as the impacts before it left it (see ``run``).
+
+    Returns:
+        As ``run``, with ``kinds`` the budget and counts of each kind; ``budget`` and ``stats``
+        are their totals, and the paths are numbered within an iteration across the kinds
+        (kind j's particle i is index Σ_{k<j} count_k + i).
+    """
+    grid = terrain.grid
+    _check_run_args(iterations, seed, paths, path_stride, sea_level)
+    if apply not in APPLY_MODES:
+        raise ValueError(f"impacts apply {' or '.join(APPLY_MODES)}, not {apply!r}")
+    tracers = _tracers(kinds, grid, seed, sea_level)
+    per_iteration = sum(t.count for t in tracers)
+    total = iterations * per_iteration
+    chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
+    work = terrain.copy()
+    batches = _Batches(work, chosen, per_iteration, path_stride)
+    for iteration in range(iterations):
+        snapshots: dict[tuple[float, float], TracingSnapshot] = {}
+        for tracer in tracers:  # all taken before any kind alters the terrain
+            if apply == PER_ITERATION and tracer.material_key not in snapshots:
+                snapshots[tracer.material_key] = work.tracing_snapshot(tracer.default)
+        for tracer in tracers:
+            if apply == PER_IMPACT:  # on the terrain as the impacts before left it
+                snap = work.tracing_snapshot(tracer.default)
+                live = work.live_state(snap)
+                batches.run(tracer, snap, iteration, live)
+                work.absorb(snap, live)
+            else:
+                batches.run(tracer, snapshots[tracer.material_key], iteration)
         if on_iteration is not None:
             on_iteration(iteration + 1)
     new_surface = work.surface()
     dh = np.where(grid.valid, new_surface - terrain.surface(), 0.0)
-    total_of = [math.fsum(column) for column in sums]
-    budget_total = ParticleBudget(
-        emitted=total_of[kernels.B_EMITTED], detached=total_of[kernels.B_DETACHED],
-        deposited=total_of[kernels.B_DEPOSITED], suspended=total_of[kernels.B_SUSPENDED],
-        lost=total_of[kernels.B_LOST], dropped=total_of[kernels.B_DROPPED])
-    stats = ParticleStats(total, impacts, int(fate_counts[0]), int(fate_counts[1]), int(fate_counts[2]))
-    return ParticleRun(work, new_surface, dh, budget_total, stats, sampled)
+    by_kind = tuple(KindRun(t.kind.name, _budget(t.sums), _stats(iterations * t.count, t.impacts, t.fates))
+                    for t in tracers)
+    fates = np.sum([t.fates for t in tracers], axis=0)
+    stats = _stats(total, sum(t.impacts for t in tracers), fates)
+    budget = _budget([batch for t in tracers for batch in t.sums])
+    return ParticleRun(work, new_surface, dh, budget, stats, batches.paths, by_kind)

@@ -85,6 +85,17 @@ class Terrain(ABC):
     def copy(self) -> Terrain:
         """An independent copy (``run`` never alters the terrain it is given)."""
 
+    def live_state(self, snapshot: TracingSnapshot) -> tuple:
+        """Per-impact application (003 §3): the ``live`` argument of ``kernels.trace_batch``
+        with which each impact alters ``snapshot``, the ground the tracer reads, at once (and
+        this terrain's own arrays where the tracer does not read them); ``absorb`` then takes
+        the snapshot's state back. ValueError for a terrain that cannot."""
+        raise ValueError("per-impact application works on heightfields and on density and binary voxels")
+
+    def absorb(self, snapshot: TracingSnapshot, live: tuple) -> None:
+        """Take back the state a per-impact batch left in ``snapshot`` and ``live``."""
+        raise ValueError("per-impact application works on heightfields and on density and binary voxels")
+
     def matter(self) -> float:
         """Volume of the ground (m³) above an arbitrary datum: what deposits add to and
         detachment takes from (on a heightfield Σ h·cell area over the domain)."""
@@ -157,6 +168,15 @@ class HeightfieldTerrain(Terrain):
 
     def copy(self) -> HeightfieldTerrain:
         return HeightfieldTerrain(self._h, self.grid)
+
+    def live_state(self, snapshot: TracingSnapshot) -> tuple:
+        from unerode_cli.particles import kernels
+
+        return (kernels.LIVE_HEIGHTFIELD, *kernels.live_off()[1:])
+
+    def absorb(self, snapshot: TracingSnapshot, live: tuple) -> None:
+        valid = self.grid.valid
+        self._h[valid] = snapshot.surface[valid]
 
 
 class LayeredTerrain(Terrain):

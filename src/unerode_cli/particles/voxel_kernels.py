@@ -6,7 +6,9 @@ binary voxels as ±1) of ``volume.voxels``'s layout, positive in the ground, wit
 surface at f = 0 (003 §4.4). Between voxel centres f is trilinear; horizontally it is clamped
 at the border (as heightfields are), below the bottom layer it is the bottom layer's value and
 above the top layer it is air (−1). Coordinates are the tracer's: x = column·dx, y = row·dy,
-z (m) with voxel k's centre at z0 + (k + ½)·dz.
+z (m) with voxel k's centre at z0 + (k + ½)·dz. When impacts alter the ground as they happen
+(per-impact application, 003 §3), ``refresh`` brings the tracer's level and top surface up to
+date around each one.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numba
 import numpy as np
 
 from unerode_cli.particles.terrain_kernels import _cell_frac
+from unerode_cli.volume.voxel_kernels import column_top
 
 #: Newton steps of ``project``, the longest move of one (in voxels) and the level below which
 #: a point is on the surface (a thousandth of a voxel of a unit-slope density).
@@ -167,3 +170,44 @@ def normals(vol, xs, ys, zs, dx, dy, dz, z0):
     for i in range(xs.size):
         out[i, 0], out[i, 1], out[i, 2] = normal_at(vol, xs[i], ys[i], zs[i], dx, dy, dz, z0)
     return out
+
+
+@numba.njit(cache=True)
+def refresh(vol, h, valid, state, binary, x, y, reach, dx, dy, z0, dz):
+    """Copy the voxels of the valid columns within ``reach`` (m) of (x, y) (and the nearest
+    one) from the terrain's ``state`` — a density, or with ``binary`` a solid mask read as ±1 —
+    into the tracer's float32 level ``vol``, and their top surface (m) into ``h``."""
+    ny, nx, nz = vol.shape
+    r0 = max(0, int(math.floor((y - reach) / dy)) - 1)
+    r1 = min(ny - 1, int(math.ceil((y + reach) / dy)) + 1)
+    c0 = max(0, int(math.floor((x - reach) / dx)) - 1)
+    c1 = min(nx - 1, int(math.ceil((x + reach) / dx)) + 1)
+    for r in range(r0, r1 + 1):
+        for c in range(c0, c1 + 1):
+            if not valid[r, c]:
+                continue
+            for k in range(nz):
+                if binary:
+                    vol[r, c, k] = 1.0 if state[r, c, k] else -1.0
+                else:
+                    vol[r, c, k] = state[r, c, k]
+            h[r, c] = column_top(vol, r, c, z0, dz)
+
+
+@numba.njit(cache=True)
+def ground_below(vol, x, y, z, dx, dy, dz, z0):
+    """Elevation (m) of the ground straight below (x, y, z) (m): z itself in the ground, else
+    where f, sampled every half voxel down the vertical, turns ≥ 0 (linear between samples);
+    z0, the bottom of the grid, when there is none."""
+    col, row = x / dx, y / dy
+    g = level_at(vol, col, row, (z - z0) / dz - 0.5)
+    if g >= 0.0:
+        return z
+    step = 0.5 * dz
+    while z > z0:
+        g1 = level_at(vol, col, row, (z - step - z0) / dz - 0.5)
+        if g1 >= 0.0:
+            return z - step * g / (g - g1)
+        z -= step
+        g = g1
+    return z0

@@ -4,8 +4,11 @@ with its K_ε and τ_c (003 Eq. 2) — and material rules on deposition and eros
 
 They implement ``terrain.Terrain`` over the grids of ``volume.voxels``: the tracer reads a frozen
 float32 level (> 0 in the ground; ``voxel_kernels``) and their top surface (where particles are
-emitted); impacts are applied in particle order by ``volume.voxels.apply_density`` /
-``apply_binary``. As on heightfields, a particle hits the ground when its step crosses the
+emitted); impacts are applied in particle order by ``volume.voxel_kernels.apply_density`` /
+``apply_binary``. With materials, an impact that detaches shares its volume among the voxels
+around it in proportion to their erodibility K_ε as well as to Eq. 13's weights, so dissolution
+follows the softer voxels (003 §5 Karst: "the karst will automatically follow the softest
+materials"). As on heightfields, a particle hits the ground when its step crosses the
 surface, which is the f = 0 level of the trilinear density (binary voxels read as ±1).
 
 The terrain's columns are its ``grid`` (x = column·dx, y = row·dy from the centre of the
@@ -30,9 +33,11 @@ from unerode_cli.volume.voxels import BinaryVoxels, DensityVoxels
 RUN_BYTES_PER_VOXEL = {"density": 20, "binary": 14}
 MATERIAL_BYTES_PER_VOXEL = 4
 #: Defaults of binary voxels: α hits per voxel volume of matter and the flip threshold C
-#: (hits), so that by default a voxel flips once a voxel's worth of matter has hit it.
-HITS_PER_VOXEL = 100
-HITS_THRESHOLD = 100
+#: (hits), so that by default a voxel flips once a voxel's worth of matter has hit it. 003
+#: asks for an α "high enough to obtain values above 1": an impact's share of a voxel is often
+#: a thousandth of it or less, and ⌊α·share⌋ would drop it with a small α.
+HITS_PER_VOXEL = 1_000_000
+HITS_THRESHOLD = 1_000_000
 
 
 def run_bytes(voxels: int, representation: str, with_material: bool) -> int:
@@ -92,7 +97,11 @@ class VoxelTerrain(Terrain):
         elif rules != MaterialRules():
             raise ValueError("material rules need a material index per voxel")
         self.rules = rules
-        self._deposit, self._on_erosion = rules.arrays(len(self.materials or ()))
+        deposit, on_erosion = rules.arrays(len(self.materials or ()))
+        erodibility = np.array([m.k_eps for m in self.materials or ()], dtype=np.float64)
+        #: the kernels' material rules: deposit material, what each material becomes when
+        #: eroded, and the erodibilities that weight erosion among the voxels of an impact
+        self._rules = (deposit, on_erosion, erodibility)
 
     @property
     def z0(self) -> float:
@@ -129,6 +138,12 @@ class VoxelTerrain(Terrain):
     def matter(self) -> float:
         return self.voxels.matter()
 
+    def absorb(self, snapshot: TracingSnapshot, live: tuple) -> None:
+        """The material index the impacts recoloured in the snapshot (the rest of the state
+        was altered in place)."""
+        if self.voxels.material is not None:
+            self.voxels.material[...] = snapshot.volume_material
+
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Intersection test: the level at points float64[n, 3] (m) times the voxel height: > 0
         in the ground, 0 on its surface; near the surface of a density built by
@@ -138,7 +153,8 @@ class VoxelTerrain(Terrain):
 
         p = np.ascontiguousarray(points, dtype=np.float64)
         dx, dy, dz = self.voxels.geometry.size
-        return vk.levels(self.level(), p[:, 0].copy(), p[:, 1].copy(), p[:, 2].copy(), dx, dy, dz, self.z0) * dz
+        level = vk.levels(self.level(), p[:, 0].copy(), p[:, 1].copy(), p[:, 2].copy(), dx, dy, dz, self.z0)
+        return level * dz
 
     def normal(self, points: np.ndarray) -> np.ndarray:
         """Unit outward normals −∇f/‖∇f‖ float64[n, 3] at points float64[n, 3] (m)."""
@@ -153,7 +169,7 @@ class VoxelTerrain(Terrain):
 
 class DensityTerrain(VoxelTerrain):
     """Density voxels f ∈ [−1, 1] (003 §4.4, Eq. 13): a voxel holds (1 + f)/2 of its volume in
-    matter; an impact's Q is shared by the voxels within R (``volume.voxels.apply_density``).
+    matter; an impact's Q is shared by the voxels within R (``volume.voxel_kernels.apply_density``).
 
     Args:
         voxels: the grid (copied).
@@ -184,17 +200,27 @@ class DensityTerrain(VoxelTerrain):
 
         dx, dy, dz = self.voxels.geometry.size
         self.left += apply_density(self.voxels.density, self._material_array(), self.voxels.valid,
-                                   dx, dy, dz, self.z0, x, y, z, q, radius, self._deposit, self._on_erosion)
+                                   dx, dy, dz, self.z0, x, y, z, q, radius, self._rules)
 
     def copy(self) -> DensityTerrain:
         new = DensityTerrain(self.voxels, self.materials, self.rules)
         new.left = self.left
         return new
 
+    def live_state(self, snapshot: TracingSnapshot) -> tuple:
+        from unerode_cli.particles import kernels
+
+        off = kernels.live_off()
+        return (kernels.LIVE_DENSITY, self.voxels.density, *off[2:6], self._rules, np.zeros(1), off[8])
+
+    def absorb(self, snapshot: TracingSnapshot, live: tuple) -> None:
+        super().absorb(snapshot, live)
+        self.left += float(live[7][0])
+
 
 class BinaryTerrain(VoxelTerrain):
     """Binary voxels with hit counts (003 §4.4, Eq. 14): an impact's share of Q in a voxel gives
-    ⌊α·share/V⌋ hits, and a voxel flips at ±C hits (``volume.voxels.apply_binary``).
+    ⌊α·share/V⌋ hits, and a voxel flips at ±C hits (``volume.voxel_kernels.apply_binary``).
 
     Args:
         voxels: the grid (copied), with its hit counts.
@@ -204,7 +230,7 @@ class BinaryTerrain(VoxelTerrain):
 
     Attributes:
         counters: int64 totals of ``apply_binary``'s counters over the terrain's impacts (the
-            names are in ``volume.voxels``: EROSION_HITS, …).
+            names are in ``volume.voxel_kernels``: EROSION_HITS, …).
     """
 
     def __init__(self, voxels: BinaryVoxels, materials: Sequence[Material] | None = None,
@@ -235,9 +261,16 @@ class BinaryTerrain(VoxelTerrain):
         dx, dy, dz = self.voxels.geometry.size
         self.counters += apply_binary(self.voxels.solid, self.voxels.hits, self._material_array(),
                                       self.voxels.valid, dx, dy, dz, self.z0, x, y, z, q, radius,
-                                      self.alpha, self.threshold, self._deposit, self._on_erosion)
+                                      self.alpha, self.threshold, self._rules)
 
     def copy(self) -> BinaryTerrain:
         new = BinaryTerrain(self.voxels, self.materials, self.rules, self.alpha, self.threshold)
         new.counters = self.counters.copy()
         return new
+
+    def live_state(self, snapshot: TracingSnapshot) -> tuple:
+        from unerode_cli.particles import kernels
+
+        off = kernels.live_off()
+        return (kernels.LIVE_BINARY, off[1], self.voxels.solid, self.voxels.hits, self.alpha, self.threshold,
+                self._rules, off[7], self.counters)

@@ -2,13 +2,14 @@
 ``hoodoo``, ``arcade``, ``alcove``, ``butte``, ``canyon`` and ``cave``.
 
 002 gives their shapes in words and pictures only; the sizes here are this project's choice
-(tens of metres, as 002's mid-scale structures), the layer parameters are Table 1's ranges
-(I in Pa, k_a and k_d scaled as :mod:`~unerode_cli.sandstone.layers` says, k_t in 1/Pa and τ_c in
-Pa as printed, see :mod:`~unerode_cli.sandstone.fluvial`) and the particle counts Table 1's
-(1 M where Table 1 has no row: canyon and cave). Fluvial erosion runs where a layer has k_t > 0,
-under the default precipitation (0.25 m/y) plus the scene's water sources (m³/y). The ablations
-of 002 Fig. 14–15 are the command line's ``--no-fluvial``, ``--no-abrasion`` and
-``--no-deflation`` on these presets.
+(tens of metres, as 002's mid-scale structures; the butte's hundreds, see below), the layer
+parameters are Table 1's ranges (I in Pa, k_a and k_d scaled as
+:mod:`~unerode_cli.sandstone.layers` says, k_t in 1/Pa and τ_c in Pa as printed, see
+:mod:`~unerode_cli.sandstone.fluvial`) and the particle counts Table 1's (1 M where Table 1 has
+no row: canyon and cave). Fluvial erosion runs where a layer has k_t > 0, under the default
+precipitation (0.25 m/y) plus the scene's water sources (m³/y). The ablations of 002
+Fig. 14–15 are the command line's ``--no-fluvial``, ``--no-abrasion`` and ``--no-deflation`` on
+these presets.
 
 - ``arch`` (Fig. 7 row 1): "a rectangular cuboid ... on top of a distinct support condition,
   stacked layers with varied erodibility (darker is stronger) and a lateral wind". A fin 52 m
@@ -37,26 +38,31 @@ of 002 Fig. 14–15 are the command line's ``--no-fluvial``, ``--no-abrasion`` a
   of viability 0.2.
 - ``butte`` (Fig. 7 row 5): "a cubical block standing on two larger ones, forming a pyramidal
   structure. We carve a small crevice on the caprock to create an instability, which causes
-  fluvial erosion to converge on the right side". Slabs 36 m and 26 m wide, 6 m thick each,
-  under a 16 m cube whose top 6 m are a caprock ten times less erodible; a crevice 1 m wide,
-  8 m long and 2 m deep in the cap, 3 m from its east (right) edge. Table 1: I = 6 MPa, weak
+  fluvial erosion to converge on the right side". Slabs 180 m and 130 m wide, 30 m thick each,
+  under an 80 m cube whose top 30 m are a caprock ten times less erodible; a crevice 5 m wide,
+  40 m long and 10 m deep in the cap, 15 m from its east (right) edge. Table 1: I = 6 MPa, weak
   wind (k_a 1e-6, k_d 1e-8), τ_c = 1 Pa, k_t from 800 /Pa at the base to 400 /Pa in the cap,
-  deposits of viability 0.1. Rain on the top runs to the crevice and over the cap's edges.
+  deposits of viability 0.1. Rain on the top runs to the crevice and over the cap's edges, falls
+  onto the slabs and over their edges, which retreat while the caprock stays. The butte has the
+  size of Monument Valley's (140 m high): the shear stress grows with the rain a lip gathers
+  (τ ∝ Q^0.6, Q ∝ the catchment's area), and a butte tens of metres wide gathers too little
+  under 0.25 m/y for Table 1's τ_c (τ < 0.5 Pa at its edges: water does not erode it at all).
 - ``canyon`` (Fig. 6 right): "an initial water path on a rock block capped with a gentle slope
-  upon a hard layer of rock and ... a high discharge at the water source". A block 40 m × 26 m
-  whose top falls gently from 16 m at the west to 12 m at the east (the top of a horizontal
-  cylinder of radius 600 m), a path 3 m wide and 1.5 m deep along its middle from 3 m inside the west face to the east
-  face,
-  soft layers (k_t = 400 /Pa) over a hard layer below 6 m (k_t = 10 /Pa, erodibility a tenth),
-  τ_c = 5 Pa so that the rain alone does not erode the top, and a source of 10⁶ m³/y pouring onto the
-  path's head. A weak wind from the south widens the canyon.
+  upon a hard layer of rock and ... a high discharge at the water source". A block 26 m × 40 m
+  whose top falls gently from 16 m at the north to 12 m at the south (the top of a horizontal
+  cylinder of radius 600 m), a path 3 m wide and 1.5 m deep along its middle from 3 m inside
+  the north face to the south face (where the previews look from), soft layers (k_t = 400 /Pa)
+  over a hard layer below 6 m (k_t = 0.01 /Pa, erodibility a tenth), τ_c = 5 Pa so that the
+  rain alone does not erode the top, and a source of 10⁶ m³/y pouring onto the path's head. A
+  weak wind from the west.
 - ``cave`` (Fig. 6 left): "the initial water course inside a sandstone block with layers of
   rocks with different erodibility, ... a strong water discharge at the river's source ... wind
-  deflation with a small coefficient". A block 36 m × 16 m × 16 m; a tunnel of radius 2 m
+  deflation with a small coefficient". A block 16 m × 36 m × 16 m; a tunnel of radius 2 m
   (a water course must be wider than the water grid's cells to carry water) from 6 m inside the
-  west end to the east face, at 6 m in a weak layer, in a course of rock 3 m around it painted
-  three times more erodible; a source of 10⁶ m³/y at the tunnel's closed end; harder layers
-  above and below; deflation and abrasion small (k_d, k_a at Table 1's lowest).
+  north end to the south face (where the previews look from), at 6 m in a weak layer, in a
+  course of rock 3 m around it painted three times more erodible; a source of 10⁶ m³/y at the
+  tunnel's closed end; harder layers above and below; deflation and abrasion small (k_d, k_a at
+  Table 1's lowest), the wind from the south.
 """
 
 from __future__ import annotations
@@ -157,49 +163,49 @@ ALCOVE: dict[str, Any] = {
 }
 
 BUTTE: dict[str, Any] = {
-    "domain": {"size": [40.0, 40.0, 32.0]},
+    "domain": {"size": [200.0, 200.0, 160.0]},
     "particles": 1_500_000,
     "shape": {"difference": [
-        {"union": [_box([2.0, 2.0, 0.0], [38.0, 38.0, 6.0]),
-                   _box([7.0, 7.0, 6.0], [33.0, 33.0, 12.0]),
-                   _box([12.0, 12.0, 12.0], [28.0, 28.0, 28.0])]},
-        _box([24.0, 16.0, 26.0], [25.0, 24.0, 28.0]),
+        {"union": [_box([10.0, 10.0, 0.0], [190.0, 190.0, 30.0]),
+                   _box([35.0, 35.0, 30.0], [165.0, 165.0, 60.0]),
+                   _box([60.0, 60.0, 60.0], [140.0, 140.0, 140.0])]},
+        _box([120.0, 80.0, 130.0], [125.0, 120.0, 140.0]),
     ]},
     "layers": [
-        _layer(6.0, 1e-4, 6e6, 1e-6, 1e-8, "lower slab", k_t=800.0, tau_c=1.0),
-        _layer(12.0, 1e-4, 6e6, 1e-6, 1e-8, "upper slab", k_t=700.0, tau_c=1.0),
-        _layer(22.0, 8e-5, 6e6, 1e-6, 1e-8, "cube", k_t=600.0, tau_c=1.0),
+        _layer(30.0, 1e-4, 6e6, 1e-6, 1e-8, "lower slab", k_t=800.0, tau_c=1.0),
+        _layer(60.0, 1e-4, 6e6, 1e-6, 1e-8, "upper slab", k_t=700.0, tau_c=1.0),
+        _layer(110.0, 8e-5, 6e6, 1e-6, 1e-8, "cube", k_t=600.0, tau_c=1.0),
         _layer(None, 1e-5, 6e6, 1e-6, 1e-8, "caprock", k_t=400.0, tau_c=1.0),
     ],
     "deposit": _layer(None, 1e-4, 6e6, 1e-6, 1e-8, "deposit", k_t=800.0, tau_c=1.0),
     "rock": {"deposit_viability": 0.1},
-    "noise": {"amplitude": 0.3, "wavelength": 4.0, "seed": 5},
+    "noise": {"amplitude": 0.3, "wavelength": 20.0, "seed": 5},
     "wind": {"azimuth": 270.0, "speed": 10.0},
 }
 
-#: The canyon's gentle top: a horizontal cylinder (axis y) of this radius (m) whose crest lies
-#: west of the domain, so the top falls from 16 m at x = 2 m to about 12 m at x = 42 m.
+#: The canyon's gentle top: a horizontal cylinder (axis x) of this radius (m) whose crest lies
+#: north of the domain, so the top falls from 16 m at y = 42 m to about 12 m at y = 2 m.
 CANYON_RADIUS = 600.0
-CANYON_CREST_X = -40.0
-CANYON_CREST_Z = 16.0 - (CANYON_RADIUS**2 - (2.0 - CANYON_CREST_X) ** 2) ** 0.5
-#: The canyon's initial water path: the band of y (m), its depth (m) under the top, and its
-#: head's x (m), where the source pours from 2 m above the top.
+CANYON_CREST_Y = 84.0
+CANYON_CREST_Z = 16.0 - (CANYON_RADIUS**2 - (CANYON_CREST_Y - 42.0) ** 2) ** 0.5
+#: The canyon's initial water path: the band of x (m), its depth (m) under the top, and the y (m)
+#: of its head, where the source pours from about 2 m above the top.
 CANYON_PATH = (13.5, 16.5)
 CANYON_PATH_DEPTH = 1.5
-CANYON_PATH_START = 5.0
+CANYON_PATH_HEAD = 39.0
 
 
 def _canyon_top(radius: float) -> dict[str, Any]:
-    return {"cylinder": {"base": [CANYON_CREST_X, 0.0, CANYON_CREST_Z], "radius": radius, "height": 30.0,
-                         "axis": "y"}}
+    return {"cylinder": {"base": [0.0, CANYON_CREST_Y, CANYON_CREST_Z], "radius": radius, "height": 30.0,
+                         "axis": "x"}}
 
 
 CANYON: dict[str, Any] = {
-    "domain": {"size": [44.0, 30.0, 20.0]},
+    "domain": {"size": [30.0, 44.0, 20.0]},
     "particles": 1_000_000,
     "shape": {"difference": [
-        {"intersection": [_box([2.0, 2.0, 0.0], [42.0, 28.0, 18.0]), _canyon_top(CANYON_RADIUS)]},
-        {"intersection": [_box([CANYON_PATH_START, CANYON_PATH[0], 0.0], [44.0, CANYON_PATH[1], 20.0]),
+        {"intersection": [_box([2.0, 2.0, 0.0], [28.0, 42.0, 18.0]), _canyon_top(CANYON_RADIUS)]},
+        {"intersection": [_box([CANYON_PATH[0], 0.0, 0.0], [CANYON_PATH[1], CANYON_PATH_HEAD, 20.0]),
                           {"difference": [_canyon_top(CANYON_RADIUS),
                                           _canyon_top(CANYON_RADIUS - CANYON_PATH_DEPTH)]}]},
     ]},
@@ -211,23 +217,25 @@ CANYON: dict[str, Any] = {
     "deposit": _layer(None, 1e-4, 1.5e6, 1e-5, 1e-7, "deposit", k_t=400.0),
     "rock": {"deposit_viability": 0.0},
     "noise": {"amplitude": 0.3, "wavelength": 3.0, "seed": 6},
-    "wind": {"azimuth": 180.0, "speed": 5.0},
-    "water": {"sources": [{"position": [CANYON_PATH_START + 1.0, 15.0, 18.0], "discharge": 1e6}]},
+    "wind": {"azimuth": 270.0, "speed": 5.0},
+    "water": {"sources": [{"position": [0.5 * sum(CANYON_PATH), CANYON_PATH_HEAD - 1.0, 18.0],
+                           "discharge": 1e6}]},
 }
 
-#: The cave's tunnel: axis at (y, z) (m), radius (m), closed west end and the source's x (m).
+#: The cave's tunnel, along y: its axis's x and z (m), radius (m), the y (m) of its closed
+#: (north) end and of the source.
 CAVE_AXIS = (8.0, 6.0)
 CAVE_RADIUS = 2.0
-CAVE_START = 8.0
-CAVE_SOURCE_X = 9.0
+CAVE_END = 32.0
+CAVE_SOURCE_Y = 31.0
 
 CAVE: dict[str, Any] = {
-    "domain": {"size": [40.0, 16.0, 18.0]},
+    "domain": {"size": [16.0, 40.0, 18.0]},
     "particles": 1_000_000,
     "shape": {"difference": [
-        _box([2.0, 0.0, 0.0], [38.0, 16.0, 16.0]),
-        {"cylinder": {"base": [CAVE_START, *CAVE_AXIS], "radius": CAVE_RADIUS, "height": 38.0 - CAVE_START,
-                      "axis": "x"}},
+        _box([0.0, 2.0, 0.0], [16.0, 38.0, 16.0]),
+        {"cylinder": {"base": [CAVE_AXIS[0], 0.0, CAVE_AXIS[1]], "radius": CAVE_RADIUS, "height": CAVE_END,
+                      "axis": "y"}},
     ]},
     "layers": [
         _layer(1.0, 2e-5, 3e6, 2e-6, 2e-8, "hard floor", k_t=0.01),
@@ -237,12 +245,12 @@ CAVE: dict[str, Any] = {
     "deposit": _layer(None, 1e-4, 1.5e6, 2e-6, 1e-7, "deposit", k_t=400.0),
     "rock": {"deposit_viability": 0.0},
     "paint": [{"shape": {"intersection": [
-        {"cylinder": {"base": [CAVE_START - 1.0, *CAVE_AXIS], "radius": CAVE_RADIUS + 3.0,
-                      "height": 39.0 - CAVE_START, "axis": "x"}},
-        _box([0.0, 0.0, 1.0], [40.0, 16.0, 10.0])]}, "erodibility": 3.0}],
+        {"cylinder": {"base": [CAVE_AXIS[0], 1.0, CAVE_AXIS[1]], "radius": CAVE_RADIUS + 3.0,
+                      "height": CAVE_END, "axis": "y"}},
+        _box([0.0, 0.0, 1.0], [16.0, 40.0, 10.0])]}, "erodibility": 3.0}],
     "noise": {"amplitude": 0.3, "wavelength": 3.0, "seed": 7},
-    "wind": {"azimuth": 90.0, "speed": 5.0},
-    "water": {"sources": [{"position": [CAVE_SOURCE_X, *CAVE_AXIS], "discharge": 1e6}]},
+    "wind": {"azimuth": 180.0, "speed": 5.0},
+    "water": {"sources": [{"position": [CAVE_AXIS[0], CAVE_SOURCE_Y, CAVE_AXIS[1]], "discharge": 1e6}]},
 }
 
 PRESETS: dict[str, dict[str, Any]] = {"arch": ARCH, "hoodoo": HOODOO, "arcade": ARCADE, "alcove": ALCOVE,

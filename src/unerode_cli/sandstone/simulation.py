@@ -9,7 +9,7 @@ fluvial rate F of Eq. 14 (``fluvial``), skipped (F = 0) when no layer has k_t > 
 (Eq. 1) of the surface particles, the wind and fluvial rates shielded by the vegetation cover
 (§8.3, ``vegetation``), which then grows on the deposits that stayed; (6) deposition (§7) of
 what eroded: each eroded particle is either deposited on a stable cell or exported out of the
-domain.
+domain (also when it would land in the part of §7's offset grid that overhangs the domain).
 
 Deposits eroded again are exported: 002 §7 deposits the rock's debris and "neglect[s] smaller
 sand grains and their transport by wind, as they are carried away from our domain", and a
@@ -217,6 +217,8 @@ class Simulation:
         grid = deposition.offset_grid(self.deposition_grid, self.seed, self.frame)
         placed, _ = deposition.deposit(removed, grid.occupancy(kept.positions), grid, self.params.deposition,
                                        self.seed, self.frame)
+        # the offset grid overhangs the domain by up to a cell: what lands beyond it is exported
+        placed = placed[self.deposition_grid.inside(self.deposition_grid.cells_of(placed))]
         new = Particles.new(placed, np.full(len(placed), self.layers.deposit_index),
                             viability=self.params.deposition.deposit_viability, deposit=True)
         self.particles = kept.appended(new)

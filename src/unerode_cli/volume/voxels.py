@@ -67,7 +67,7 @@ def _checked_material(material: np.ndarray | None, shape: tuple[int, ...]) -> np
         raise ValueError(f"the material index must be integers of shape {shape}, got {mat.dtype} {mat.shape}")
     if mat.size and (mat.min() < 0 or mat.max() > MAX_MATERIALS):
         raise ValueError(f"material indices must be in [0, {MAX_MATERIALS}]")
-    return np.ascontiguousarray(mat, dtype=np.int16)
+    return np.array(mat, dtype=np.int16, order="C")
 
 
 def _checked_valid(valid: np.ndarray | None, shape: tuple[int, int, int]) -> np.ndarray:
@@ -75,7 +75,8 @@ def _checked_valid(valid: np.ndarray | None, shape: tuple[int, int, int]) -> np.
         return np.ones(shape[:2], dtype=bool)
     arr = np.asarray(valid)
     if arr.shape != shape[:2] or arr.dtype != np.bool_:
-        raise ValueError(f"the column mask must be booleans of shape {shape[:2]}, got {arr.dtype} {arr.shape}")
+        raise ValueError(f"the column mask must be booleans of shape {shape[:2]}, "
+                         f"got {arr.dtype} {arr.shape}")
     return arr.copy()
 
 
@@ -153,7 +154,8 @@ def block_geometry(west: float, north: float, width: float, height: float, botto
     cols = max(1, round(width / voxel_size))
     rows = max(1, round(height / voxel_size))
     layers = max(1, math.ceil((top - bottom) / voxel_size - 1e-9))
-    return VoxelGeometry((west, north, bottom), (width / cols, height / rows, voxel_size), (rows, cols, layers))
+    size = (width / cols, height / rows, voxel_size)
+    return VoxelGeometry((west, north, bottom), size, (rows, cols, layers))
 
 
 def column_heights(elevation: np.ndarray, valid: np.ndarray, dx: float, dy: float,
@@ -228,3 +230,16 @@ def ground_mesh(voxels: DensityVoxels | BinaryVoxels):
     mesh = surface_mesh(padded, (0.0, 0.0, 0.0), 1.0, level=0.0, materials=material)
     vertices = (mesh.vertices - 0.5) * np.asarray(voxels.geometry.size)
     return Mesh(vertices, mesh.faces, mesh.materials, mesh.colours)
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit outward normals float64[n, 3] of a mesh's vertices: the sum of the normals of the
+    faces around each vertex, weighted by their areas (faces counter-clockwise seen from outside);
+    0 for a vertex of no face."""
+    a, b, c = (vertices[faces[:, i]] for i in range(3))
+    face = np.cross(b - a, c - a)  # twice the area, along the outward normal
+    summed = np.zeros_like(vertices, dtype=np.float64)
+    for i in range(3):
+        np.add.at(summed, faces[:, i], face)
+    length = np.linalg.norm(summed, axis=1, keepdims=True)
+    return np.divide(summed, length, out=np.zeros_like(summed), where=length > 0)
