@@ -95,7 +95,8 @@ def _karst():
     layers = horizon_material(g, np.array([table - 5 * d, table, np.inf]), np.array([1, 0, 1]))
     terrain = BinaryTerrain(BinaryVoxels(g, binary_block(h, g), material=layers),
                             [Material("limestone", 5.0), Material("marl", 0.5)])
-    return terrain, Emission.rain(1000, mask=h < table), VelocityField.uniform(1.0, 0.0, medium="water"), table
+    flow = VelocityField.uniform(1.0, 0.0, medium="water")
+    return terrain, Emission.rain(1000, mask=h < table), flow, table
 
 
 def _tunnel():

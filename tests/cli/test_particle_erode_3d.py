@@ -1,6 +1,7 @@
 """`particle-erode` on 3D terrains as a user runs it: a density or binary block built from a DEM,
-the altered volume (.npz) and its closed mesh, a volume read back with --voxels, 3D material
-layers from YAML, per-impact application, and bad input refused with one sentence (exit 2)."""
+the altered volume (.npz), its closed mesh and a view of it, a volume read back with --voxels,
+3D material layers from YAML, per-impact application, and bad input refused with one sentence
+(exit 2)."""
 
 from __future__ import annotations
 
@@ -47,8 +48,9 @@ def _read(path: Path) -> tuple[np.ndarray, Affine, str]:
 def test_a_density_block_keeps_its_mass_and_writes_its_volume_and_a_closed_mesh(tmp_path: Path,
                                                                                  cone: Path) -> None:
     out, volume, mesh = tmp_path / "out.tif", tmp_path / "volume.npz", tmp_path / "out.ply"
+    preview = tmp_path / "out.png"
     result = run_cli("particle-erode", cone, out, "--representation", "density", *RUN, "--volume-out", volume,
-                     "--mesh", mesh)
+                     "--mesh", mesh, "--preview", preview)
     assert result.returncode == 0, result.stderr
     stats = _sidecar(out)["statistics"]
     b = stats["mass_budget_m3"]
@@ -73,6 +75,7 @@ def test_a_density_block_keeps_its_mass_and_writes_its_volume_and_a_closed_mesh(
     assert origin == pytest.approx((WEST, NORTH - N * DX, 300.0 - 10 * DX))
     assert enclosed_volume(shape) == pytest.approx(read.voxels.matter(), rel=0.02)
     assert stats["mesh"]["faces"] == len(shape.faces)
+    assert preview.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # the mesh rendered
 
 
 @pytest.mark.slow

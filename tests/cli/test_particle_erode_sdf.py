@@ -103,9 +103,8 @@ def test_the_meanders_preset_runs_on_an_implicit_terrain_with_its_field(tmp_path
     assert parameters["radius"] == pytest.approx(5 * DX)  # Table 1: R = 5 voxels
     moved = budget["detached"] + budget["deposited"]
     assert moved > 0 and abs(budget["residual"]) < 1e-9 * moved
-    # 30 particles filled at their first impacts dig one pit 60 m deep with metaballs of R = 100 m
-    # on a hill curved over 180 m: each sized on the surface it lifts (0.01 % measured)
-    assert abs(budget["terrain_volume_change"] - (budget["deposited"] - budget["detached"])) < 0.01 * moved
+    # each metaball is sized on the node columns it changes, also at the domain's edges
+    assert abs(budget["terrain_volume_change"] - (budget["deposited"] - budget["detached"])) < 1e-6 * moved
 
 
 def test_several_kinds_each_with_its_preset(tmp_path: Path, hill: Path) -> None:

@@ -141,3 +141,16 @@ def test_over_iterations_the_block_stays_closer_to_the_heightfield_than_another_
 def test_the_counters_of_binary_voxels_name_kernel_slots() -> None:
     assert (kv.EROSION_HITS, kv.DEPOSITION_HITS, kv.REMOVED, kv.ADDED, kv.TRANSFORMED,
             kv.UNPLACED_HITS) == tuple(range(kv.N_COUNTERS))
+
+
+def test_particles_that_die_in_flight_leave_their_load_on_the_ground_below() -> None:
+    h = np.full((N, N), 100.0)
+    terrain = DensityTerrain(DensityVoxels(GEOMETRY, density_block(h, GEOMETRY)))
+    params = preset_params("rain", DX, initial_load=1.0, drop_height=200.0, lifetime=1.0)  # dies falling
+    result = run(terrain, params, Emission.rain(50), seed=4)
+    assert result.stats.expired == 50 and result.budget.dropped > 0.0
+    after = result.terrain.voxels.density
+    z = GEOMETRY.layer_centres()
+    reach = 100.0 + DX + params.radius  # the ground, its ramp and an impact's radius
+    assert np.all(after[:, :, z > reach] == -1.0)  # nothing hangs in the air (it would, near 300 m)
+    assert result.terrain.matter() - terrain.matter() == pytest.approx(result.budget.deposited, rel=1e-9)

@@ -24,6 +24,7 @@ from unerode_cli.volume.voxels import (
     grid_to_xyz,
     ground_mesh,
     horizon_material,
+    vertex_normals,
     xyz_to_grid,
 )
 
@@ -276,3 +277,19 @@ def test_the_ground_mesh_is_closed_and_encloses_the_matter() -> None:
     assert mesh.vertices[:, 2].max() == pytest.approx(h.max(), abs=0.05)
     binary = BinaryVoxels(geometry, binary_block(h, geometry))
     assert_watertight(ground_mesh(binary).faces)
+
+
+def test_the_mesh_of_a_voxelised_sphere_has_outward_vertex_normals() -> None:
+    n = 16
+    geometry = VoxelGeometry((0.0, n * D, 0.0), (D, D, D), (n, n, n))
+    rows, cols, layers = np.indices(geometry.shape)
+    centre = np.array([7.5, 7.5, 8.0]) * D  # x, y (grid coordinates), z
+    p = np.stack([cols * D, rows * D, (layers + 0.5) * D], axis=-1)
+    f = np.clip((5.0 * D - np.linalg.norm(p - centre, axis=-1)) / (2.0 * D), -1.0, 1.0)
+    mesh = ground_mesh(DensityVoxels(geometry, f))
+    normals = vertex_normals(mesh.vertices, mesh.faces)
+    # the mesh's x east, y north from the grid's south-west corner: the centre's y flips
+    radial = mesh.vertices - np.array([centre[0] + D / 2, n * D - centre[1] - D / 2, centre[2]])
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0)
+    assert np.einsum("ij,ij->i", normals, radial).min() > 0.95  # within 18° of radial everywhere

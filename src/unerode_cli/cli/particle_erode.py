@@ -54,7 +54,7 @@ def particle_erode(
     preset: Annotated[str | None, typer.Option("--preset", help="Preset of 003 Table 1: rain, meanders, river, landslide, coastal, wind, underwater, volcano, karst or tunnel (described above), or several joined by + (e.g. rain+wind+river: each kind of particles with its preset's count and values, 003 Fig. 8); every value can be overridden. Default: rain.", rich_help_panel="Run")] = None,
     kinds: Annotated[Path | None, typer.Option("--kinds", help="YAML of the kinds of particles of the run, in order (each: preset, particles per iteration, velocity, parameters; optional iterations; see the README); instead of --preset.", rich_help_panel="Run")] = None,
     particles: Annotated[int | None, typer.Option("--particles", min=1, help="Particles emitted per iteration (default: the preset's).", rich_help_panel="Run")] = None,
-    iterations: Annotated[int | None, typer.Option("--iterations", min=1, help="Iterations; the terrain is updated after each (default: the preset's).", rich_help_panel="Run")] = None,
+    iterations: Annotated[int | None, typer.Option("--iterations", min=1, help="Iterations; the terrain is updated after each (at each impact with --apply per-impact; default: the preset's).", rich_help_panel="Run")] = None,
     seed: Seed = 0,
     threads: Annotated[int | None, typer.Option("--threads", min=1, help="Numba threads (default: all cores); the result does not depend on it.", rich_help_panel="Run")] = None,
     apply: Annotated[str, typer.Option("--apply", help="When impacts alter the terrain: per-iteration (every particle of an iteration traced in parallel against the terrain as it stood before the iteration, then their impacts applied in order: fast, but many particles per iteration all settle in the same hollows and pile up there) or per-impact (each impact applied as it happens, 003 §3: a particle meets what it and every particle before it did, but the particles are traced one after the other, on one thread; heightfield, density and binary only). Both conserve mass and are deterministic.", rich_help_panel="Run")] = "per-iteration",
@@ -127,7 +127,7 @@ particle_erode.__doc__ = (
     "Erode a DEM with particles (003): each iteration emits particles (rain or a source) that "
     "fall, bounce and roll under gravity, buoyancy, Stokes drag and an optional medium velocity, "
     "detaching and depositing matter at every impact; the terrain is updated after each "
-    "iteration. Works on a heightfield, a layered terrain (--layers, --materials), density or binary "
+    "iteration (or at each impact: --apply per-impact). Works on a heightfield, a layered terrain (--layers, --materials), density or binary "
     "voxels (--representation; a block built from the DEM or --voxels) or an implicit terrain "
     "(--representation sdf, --sdf), whose top surface is OUTPUT; several kinds of particles may run "
     "together (--preset rain+wind+river, --kinds). Deterministic "

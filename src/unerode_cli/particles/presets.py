@@ -145,7 +145,8 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in (
            1.5, 100, 10, "rain",
            _table(restitution=0.9, density=1.5, capacity=1.0, k_eps=1.0, omega=1.0, drop_height=1.0),
            field="wind (uniform or a raster)", field_medium="air", paper_representation="density",
-           note="particles start 1 m above the ground (they are blown, not dropped); 003 weathered "
+           note="particles start a twentieth of a cell above the ground (they are blown, not dropped); "
+                "003 weathered "
                 "rock columns on density voxels (--representation density, 0.2 m voxels)"),
     Preset("underwater", "currents eroding a sea floor (003 Table 1 Underwater)",
            2.5, 100, 50, "rain",
@@ -174,7 +175,8 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in (
            _table(restitution=0.1, density=500.0, capacity=1.0, k_eps=1.0, omega=1.0, keep_suspended=1.0),
            representation="density", paper_representation="density",
            note="give the source; the runoff carries what it dissolves away (kept suspended: 003 gives "
-                "no place where it settles)"),
+                "no place where it settles), so a pit grows where the particles first land: put the source "
+                "before a rock face and give --emission-velocity towards it to drill into the face"),
 )})
 
 

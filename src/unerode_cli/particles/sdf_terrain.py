@@ -76,7 +76,7 @@ class SdfTerrain(Terrain):
         )
 
     def apply(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, q: np.ndarray, radius: np.ndarray) -> None:
-        self.field.apply(x, y, z, q, radius)
+        self.field.apply(x, y, z, q, radius, self.grid.valid)
 
     def copy(self) -> SdfTerrain:
         return SdfTerrain(self.field, self.grid.valid)
