@@ -15,36 +15,40 @@ locally planar (z − h alone overstates it by n on a slope, and a metaball woul
 the volume by Q/n instead of Q); the 0-level is h whatever n.
 
 Metaballs (003 Eq. 11): a change of volume Q (m³, > 0 deposits) at a surface point c with
-radius R adds a metaball of compact support, m(p) = a·max(0, 1 − t/R)·w(s/R), with s = n̂·(p − c)
-the distance along the surface's outward normal n̂ at c, t = ‖p − c − s·n̂‖ the distance across
-it and w(σ) = min(1, max(0, 2 − 2|σ|)) (1 within R/2 of the tangent plane, 0 beyond R). The
-composition is the sum f̃ = f + Σ m, so eroding then depositing the same metaball restores f
-(to rounding). Within R/2 of the surface m is constant along the normal, so on a plane the
-surface moves by exactly a·(1 − t/R): 003 Eq. 9's cone profile (1 − d/R, Eq. 11) laid on the
-surface, lifting ∫₀ᴿ(1 − t/R)·2πt dt = πR²/3 per metre of a, hence a = −3Q/(πR²) (m). This
-departs from 003 twice, for the volume to be Q: Eq. 11 (its appendix, Eq. 15–17) scales the
-cone so that its *volume* integral is Q (λ = 3Q/(πR³)), which suits a density (voxels, Eq. 13)
-but not a distance, whose surface moves by what is added to it; and Eq. 11's cone is round
-(d = ‖p − c‖), which lifts a plane by less than a near c (the lift t solves t = a(1 − √(ρ² + t²)/R))
-and, sampled on nodes a radius apart along z, loses a quarter of its volume to the linear
-interpolation between them, where m constant along the normal loses nothing. A change with
-|a| > R/2 is spread over the radius at which |a| = R/2, and a radius below ``MIN_RADIUS`` node
-spacings is widened to it (the cache cannot hold a narrower cone: at one spacing about 6 % of
-its volume falls between the nodes, at 1.5 under 0.1 %; on a heightfield a footprint narrower
-than a cell likewise goes to the nearest cell). A metaball moves the surface by less than R/2
-along n̂, and a pile of narrow ones would lose what its steep flanks leave outside that band.
-Changes are placed in order, each put on
-the surface as the ones before left it (``place_changes``): all the impacts of an iteration
-are traced on one frozen terrain, and a change left above or below the surface would move less
-matter. Off a plane the lift differs from πR²|a|/3: on a curved surface the lift along the fixed n̂
-covers a cap larger than its disc (1 + 0.15·(κR)² on a sphere of curvature κ), in a gully or
-on a thin ridge the walls or the far side within R are lifted too, and a metaball at the
-grid's border lifts a part outside it. So a is then set so that the ground of the cache along
-its columns — what the top heightfield and ``inside_volume`` read — changes by exactly Q over
-the valid columns (``place_changes``: secant steps on a, the change measured on the columns
-and layers the metaball reaches). The exact field follows to within the cache's interpolation
-where the surface faces up (0.1 % on DEMs); columns cross a steep wall at grazing angles and
-measure its moves coarsely (on a sphere's flanks, 4 % for R = 4 node spacings, 0.6 % for 8).
+radius R adds a metaball of compact support, m(p) = a·max(0, 1 − t/R)·w(s/R), with d̂ the
+direction the change moves the surface (the outward normal for a deposit, inward for
+erosion), s = d̂·(p − c) the distance along it, t = ‖p − c − s·d̂‖ the distance across it, and
+w = 1 from ``BEHIND``·R behind the surface (s < 0) to R/2 ahead of it, falling linearly to 0
+at R ahead and at (``BEHIND`` + ½)·R behind. The composition is the sum f̃ = f + Σ m, so
+eroding then depositing the same metaball (same centre, radius and d̂) restores f (to
+rounding). Where w = 1 m is constant along d̂, so a plane moves by exactly a·(1 − t/R): 003
+Eq. 9's cone profile (1 − d/R, Eq. 11) laid on the surface, lifting ∫₀ᴿ(1 − t/R)·2πt dt =
+πR²/3 per metre of a, hence a = −3Q/(πR²) (m) to start with. This departs from 003, for the
+volume to be Q: Eq. 11 (its appendix, Eq. 15–17) scales the cone so that its *volume*
+integral is Q (λ = 3Q/(πR³)), which suits a density (voxels, Eq. 13) but not a distance, whose
+surface moves by what is added to it; Eq. 11's cone is round (d = ‖p − c‖), which lifts a
+plane by less than a near c and, sampled on nodes a radius apart along z, loses a quarter of
+its volume to the linear interpolation between them, where m constant along d̂ loses nothing;
+and a metaball that faded within R behind the surface would, under a pile of deposits taller
+than R/2 (or a pit as deep), make f decrease upwards and the pile hollow out, where one that
+reaches far behind keeps f growing outwards. A change with |a| > R/2 is spread over the radius
+at which |a| = R/2, and a radius below ``MIN_RADIUS`` node spacings is widened to it (the cache
+cannot hold a narrower cone: at one spacing about 6 % of its volume falls between the nodes,
+at 1.5 under 0.1 %; on a heightfield a footprint narrower than a cell likewise goes to the
+nearest cell).
+
+Changes are placed in order, each put on the surface as the ones before left it
+(``place_changes``): all the impacts of an iteration are traced on one frozen terrain, and a
+change left above or below the surface would move less matter. Off a plane the lift differs
+from πR²|a|/3: on a curved surface the lift along the fixed d̂ covers a cap larger than its
+disc (1 + 0.15·(κR)² on a sphere of curvature κ), in a gully or on a thin ridge the walls or
+the far side within reach move too, and a metaball at the grid's border lifts a part outside
+it. So a is then set so that the ground of the cache along its columns — what the top
+heightfield and ``inside_volume`` read — changes by exactly Q over the valid columns (secant
+steps on a, the change measured on the columns and layers the metaball reaches). The exact
+field follows to within the cache's interpolation where the surface faces up (0.15 % on
+DEMs); columns cross a steep wall at grazing angles and measure its moves coarsely (on a
+sphere's flanks, 4 % for R = 4 node spacings, 0.6 % for 8).
 
 Cache: f at the voxel centres of the geometry (the nodes), kept up to date — the base sampled
 once, each metaball added to the nodes it reaches — and read trilinearly by the tracer.
@@ -53,7 +57,7 @@ When ``flatten_every`` metaballs are pending the tree is flattened: the base bec
 evaluation. Flattening adds the trilinear interpolation error of f between nodes, at most
 L·D/2 for f of slope at most L (D the diagonal of a node cell): none where f is linear (a
 plane; a heightfield's surface along z), at most √5·|a|·D/(2R) within a metaball's reach (its
-slope is at most |a|/R across the normal and 2|a|/R along it) and about D²κ/8 on a surface of
+slope is at most |a|/R across d̂ and 2|a|/R along it) and about D²κ/8 on a surface of
 curvature κ (a sphere: κ = 1/r).
 """
 
@@ -82,14 +86,18 @@ MIN_RADIUS = 1.5
 SIZE_STEPS = 3
 SIZE_TOLERANCE = 1e-6
 SIZE_CAP = 4.0
-#: Newton steps that put a change on the surface, the longest move of one (node spacings) and
-#: the |f| at which a point is on the surface (node spacings).
+#: Newton steps that put a change on the surface, the longest move of one, the |f| at which a
+#: point is on the surface and the |f| beyond which they missed it (all in node spacings).
 NEWTON_STEPS = 4
 NEWTON_MOVE = 1.0
 NEWTON_TOLERANCE = 1e-6
-#: Columns of the metaball table: centre (m), radius R (m), amplitude a (m), unit normal.
+NEWTON_MISS = 0.01
+#: Columns of the metaball table: centre (m), radius R (m), amplitude a (m), and the unit
+#: direction d̂ the surface moves (outward for a deposit).
 BALL_X, BALL_Y, BALL_Z, BALL_R, BALL_A, BALL_NX, BALL_NY, BALL_NZ = range(8)
 BALL_COLUMNS = 8
+#: How far a metaball reaches behind the surface it moves, in radii (module docstring).
+BEHIND = 4.0
 #: Step of the central differences of ``ImplicitField.normals``, in node spacings.
 NORMAL_STEP = 1e-4
 
@@ -378,11 +386,11 @@ def _metaball(balls, j, x, y, z):
     """Metaball j of the table (module docstring) at (x, y, z) (m)."""
     px, py, pz = x - balls[j, BALL_X], y - balls[j, BALL_Y], z - balls[j, BALL_Z]
     radius = balls[j, BALL_R]
-    s = px * balls[j, BALL_NX] + py * balls[j, BALL_NY] + pz * balls[j, BALL_NZ]
-    fade = min(1.0, 2.0 - 2.0 * abs(s) / radius)
+    s = (px * balls[j, BALL_NX] + py * balls[j, BALL_NY] + pz * balls[j, BALL_NZ]) / radius
+    fade = min(1.0, 2.0 - 2.0 * s) if s >= 0.0 else min(1.0, 2.0 * (s + BEHIND + 0.5))
     if fade <= 0.0:
         return 0.0
-    t2 = px * px + py * py + pz * pz - s * s
+    t2 = px * px + py * py + pz * pz - (s * radius) ** 2
     t = math.sqrt(t2) if t2 > 0.0 else 0.0
     return balls[j, BALL_A] * (1.0 - t / radius) * fade if t < radius else 0.0
 
@@ -447,20 +455,27 @@ def _value_gradient(g, x, y, z, dx, dy, z0, dz):
             (hi - lo) / dz if k1 > k else 0.0)
 
 
+@numba.njit(cache=True, inline="always")
+def _span(centre, d, radius):
+    """(low, high) (m) along one axis of a cylinder of radius R along the unit vector whose
+    component on that axis is d, from (``BEHIND`` + ½)·R behind ``centre`` to R ahead."""
+    across = radius * math.sqrt(max(0.0, 1.0 - d * d))
+    ahead, behind = centre + radius * d, centre - (BEHIND + 0.5) * radius * d
+    return min(ahead, behind) - across, max(ahead, behind) + across
+
+
 @numba.njit(cache=True)
 def _reach(shape, dx, dy, z0, dz, balls, j):
-    """Index bounds (r0, r1, c0, c1, k0, k1), inclusive, of the nodes metaball j may reach: the
-    box around a cylinder of radius R and half-height R along n̂ (R·(√(1 − n_i²) + |n_i|) along
-    axis i)."""
+    """Index bounds (r0, r1, c0, c1, k0, k1), inclusive, of the nodes metaball j may reach
+    (the box around its support, ``_span``)."""
     ny, nx, nz = shape
-    x, y, z, radius = balls[j, BALL_X], balls[j, BALL_Y], balls[j, BALL_Z], balls[j, BALL_R]
-    ex = radius * (math.sqrt(max(0.0, 1.0 - balls[j, BALL_NX] ** 2)) + abs(balls[j, BALL_NX]))
-    ey = radius * (math.sqrt(max(0.0, 1.0 - balls[j, BALL_NY] ** 2)) + abs(balls[j, BALL_NY]))
-    ez = radius * (math.sqrt(max(0.0, 1.0 - balls[j, BALL_NZ] ** 2)) + abs(balls[j, BALL_NZ]))
-    kk = (z - z0) / dz - 0.5
-    return (max(0, int(math.ceil((y - ey) / dy))), min(ny - 1, int(math.floor((y + ey) / dy))),
-            max(0, int(math.ceil((x - ex) / dx))), min(nx - 1, int(math.floor((x + ex) / dx))),
-            max(0, int(math.ceil(kk - ez / dz))), min(nz - 1, int(math.floor(kk + ez / dz))))
+    radius = balls[j, BALL_R]
+    x_lo, x_hi = _span(balls[j, BALL_X], balls[j, BALL_NX], radius)
+    y_lo, y_hi = _span(balls[j, BALL_Y], balls[j, BALL_NY], radius)
+    z_lo, z_hi = _span(balls[j, BALL_Z] - z0, balls[j, BALL_NZ], radius)
+    return (max(0, int(math.ceil(y_lo / dy))), min(ny - 1, int(math.floor(y_hi / dy))),
+            max(0, int(math.ceil(x_lo / dx))), min(nx - 1, int(math.floor(x_hi / dx))),
+            max(0, int(math.ceil(z_lo / dz - 0.5))), min(nz - 1, int(math.floor(z_hi / dz - 0.5))))
 
 
 @numba.njit(cache=True)
@@ -510,29 +525,42 @@ def _ground_near(cache, valid, bounds, dz):
 
 
 @numba.njit(cache=True)
-def _onto_surface(cache, dx, dy, z0, dz, x, y, z, reach):
-    """The point of the cache's 0-level near (x, y, z) (m): a point in the air more than
-    ``reach`` (m) above the ground first goes straight down onto the highest crossing below it
-    (f is linear in z between the node layers of a column), then Newton steps along ∇f (at most
-    ``NEWTON_STEPS`` of one node spacing). A point with no ground below keeps its place.
-    Returns (x, y, z, n_x, n_y, n_z), n̂ = ∇f/‖∇f‖ there (straight up where ∇f vanishes)."""
+def _column_crossing(cache, x, y, z, z0, dz, dx, dy, upwards):
+    """The elevation (m) of the first zero crossing of the trilinear cache above (``upwards``)
+    or below (x, y, z), f being linear in z between the node layers of a column; NaN when
+    the column has none that way."""
     nz = cache.shape[2]
+    z_prev = min(max(z, z0 + 0.5 * dz), z0 + (nz - 0.5) * dz)
+    f_prev = _trilinear(cache, x / dx, y / dy, (z_prev - z0) / dz - 0.5)
+    k = int(math.floor((z_prev - z0) / dz - 0.5)) + (1 if upwards else 0)
+    step = 1 if upwards else -1
+    while 0 <= k < nz:
+        zk = z0 + (k + 0.5) * dz
+        fk = _trilinear(cache, x / dx, y / dy, float(k))
+        if (fk >= 0.0) != (f_prev >= 0.0):
+            return z_prev + (zk - z_prev) * f_prev / (f_prev - fk)
+        z_prev, f_prev = zk, fk
+        k += step
+    return math.nan
+
+
+@numba.njit(cache=True)
+def _onto_surface(cache, dx, dy, z0, dz, x, y, z, reach):
+    """The point of the cache's 0-level near (x, y, z) (m) and the unit normal ∇f/‖∇f‖ there
+    (straight up where ∇f vanishes): a point in the air more than ``reach`` (m) above the
+    ground first goes straight down onto the crossing below it; then Newton steps along ∇f
+    (at most ``NEWTON_STEPS`` of one node spacing). When they do not end on the surface (a
+    point deep under a pile of deposits, where f need not grow upwards) the point goes up
+    (from the ground) or down (from the air) its column to the first crossing instead. A
+    point whose column has none keeps its place. Returns (x, y, z, n_x, n_y, n_z)."""
     spacing = min(dx, dy, dz)
     f = _trilinear(cache, x / dx, y / dy, (z - z0) / dz - 0.5)
     if f > reach:
-        z_prev = min(z, z0 + (nz - 0.5) * dz)
-        f_prev = _trilinear(cache, x / dx, y / dy, (z_prev - z0) / dz - 0.5)
-        grounded = False
-        for k in range(min(int(math.floor((z_prev - z0) / dz - 0.5)), nz - 1), -1, -1):
-            zk = z0 + (k + 0.5) * dz
-            fk = _trilinear(cache, x / dx, y / dy, float(k))
-            if fk < 0.0:
-                z = z_prev + (zk - z_prev) * f_prev / (f_prev - fk)
-                grounded = True
-                break
-            z_prev, f_prev = zk, fk
-        if not grounded:
+        down = _column_crossing(cache, x, y, z, z0, dz, dx, dy, False)
+        if math.isnan(down):
             return x, y, z, 0.0, 0.0, 1.0
+        z = down
+    start_x, start_y, start_z, start_f = x, y, z, f
     for step in range(NEWTON_STEPS + 1):
         f, gx, gy, gz = _value_gradient(cache, x, y, z, dx, dy, z0, dz)
         g2 = gx * gx + gy * gy + gz * gz
@@ -543,6 +571,12 @@ def _onto_surface(cache, dx, dy, z0, dz, x, y, z, reach):
         if move > NEWTON_MOVE * spacing:
             s *= NEWTON_MOVE * spacing / move
         x, y, z = x - s * gx, y - s * gy, z - s * gz
+    if abs(f) > NEWTON_MISS * spacing:
+        crossing = _column_crossing(cache, start_x, start_y, start_z, z0, dz, dx, dy, start_f < 0.0)
+        if not math.isnan(crossing):
+            x, y, z = start_x, start_y, crossing
+            f, gx, gy, gz = _value_gradient(cache, x, y, z, dx, dy, z0, dz)
+            g2 = gx * gx + gy * gy + gz * gz
     if g2 == 0.0:
         return x, y, z, 0.0, 0.0, 1.0
     norm = math.sqrt(g2)
@@ -553,8 +587,8 @@ def _onto_surface(cache, dx, dy, z0, dz, x, y, z, reach):
 def place_changes(cache, valid, dx, dy, z0, dz, xs, ys, zs, qs, rs):
     """Turn changes of volume Q (m³, > 0 deposits) at (x, y, z) (m) with radii R (m) into
     metaballs, in order: each is put onto the 0-level of the cache as it stands
-    (``_onto_surface``, from R above), given the normal there and the radius R widened to
-    ``MIN_RADIUS`` node spacings and to |a| = ``U_MAX``·R, added to the cache with a =
+    (``_onto_surface``, from R above), given d̂ = ± the normal there and the radius R widened
+    to ``MIN_RADIUS`` node spacings and to |a| = ``U_MAX``·R, added to the cache with a =
     −3Q/(πR²), then rescaled (``SIZE_STEPS`` secant steps, by at most ``SIZE_CAP``) until the
     ground of the ``valid`` columns changed by Q (module docstring).
     Returns the metaballs (columns ``BALL_*``): float64[n, BALL_COLUMNS]."""
@@ -567,7 +601,8 @@ def place_changes(cache, valid, dx, dy, z0, dz, xs, ys, zs, qs, rs):
         x, y, z, nx_, ny_, nz_ = _onto_surface(cache, dx, dy, z0, dz, xs[j], ys[j], zs[j], radius)
         balls[j, BALL_X], balls[j, BALL_Y], balls[j, BALL_Z] = x, y, z
         balls[j, BALL_R], balls[j, BALL_A] = radius, -3.0 * q / (math.pi * radius * radius)
-        balls[j, BALL_NX], balls[j, BALL_NY], balls[j, BALL_NZ] = nx_, ny_, nz_
+        ahead = 1.0 if q > 0.0 else -1.0
+        balls[j, BALL_NX], balls[j, BALL_NY], balls[j, BALL_NZ] = ahead * nx_, ahead * ny_, ahead * nz_
         bounds = _reach(cache.shape, dx, dy, z0, dz, balls, j)
         before = _ground_near(cache, valid, bounds, dz)
         _splat(cache, dx, dy, z0, dz, balls, j, 1.0)
@@ -682,12 +717,12 @@ class ImplicitField:
         self._append(place_changes(self.cache, columns, *self._frame(), x, y, z, q, radius))
 
     def add_metaballs(self, balls: np.ndarray) -> None:
-        """Add metaballs float64[m, BALL_COLUMNS] (centre, R, a in m, unit normal; columns
+        """Add metaballs float64[m, BALL_COLUMNS] (centre, R, a in m, unit direction d̂; columns
         ``BALL_*``) as they are."""
         table = np.ascontiguousarray(balls, dtype=np.float64).reshape(-1, BALL_COLUMNS)
         normals = np.linalg.norm(table[:, BALL_NX:], axis=1)
         if not (np.isfinite(table).all() and (table[:, BALL_R] > 0).all() and np.allclose(normals, 1.0)):
-            raise ValueError("metaballs need finite centres and amplitudes, radii > 0 m and unit normals")
+            raise ValueError("metaballs need finite centres and amplitudes, radii > 0 m and unit directions")
         add_metaballs(self.cache, *self._frame(), table)
         self._append(table)
 
