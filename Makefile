@@ -54,6 +54,8 @@ bench: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench
 	$(BIN)/lint-imports
+	@dups=$$(find tests -name 'test_*.py' -printf '%f\n' | sort | uniq -d); \
+	if [ -n "$$dups" ]; then echo "test modules that share a name (pytest imports them by it): $$dups"; exit 1; fi
 
 clean:
 	rm -rf $(VENV) $(DEMO) build *.egg-info src/*.egg-info .pytest_cache .ruff_cache
