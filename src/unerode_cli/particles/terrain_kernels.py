@@ -12,27 +12,10 @@ import math
 import numba
 import numpy as np
 
+from unerode_cli.volume.voxel_kernels import bilinear, cell_frac
 
-@numba.njit(cache=True, inline="always")
-def _cell_frac(s, n):
-    """Lower cell index and fraction of a grid coordinate ``s`` (cell centres at integers),
-    clamped to the grid."""
-    s = min(max(s, 0.0), n - 1.0)
-    i = min(int(s), n - 2) if n > 1 else 0
-    return i, s - i
-
-
-@numba.njit(cache=True)
-def height_at(h, col, row):
-    """Bilinear ground height (m) at grid coordinates (col, row) = (x/dx, y/dy)."""
-    ny, nx = h.shape
-    c, fx = _cell_frac(col, nx)
-    r, fy = _cell_frac(row, ny)
-    c1 = min(c + 1, nx - 1)
-    r1 = min(r + 1, ny - 1)
-    top = h[r, c] * (1.0 - fx) + h[r, c1] * fx
-    bottom = h[r1, c] * (1.0 - fx) + h[r1, c1] * fx
-    return top * (1.0 - fy) + bottom * fy
+#: Bilinear ground height (m) at grid coordinates (col, row) = (x/dx, y/dy).
+height_at = bilinear
 
 
 @numba.njit(cache=True)
@@ -46,8 +29,8 @@ def normal_at(h, col, row, dx, dy):
     """Unit upward normal (n_x, n_y, n_z) of the bilinear surface at grid coordinates
     (col, row) = (x/dx, y/dy)."""
     ny, nx = h.shape
-    c, fx = _cell_frac(col, nx)
-    r, fy = _cell_frac(row, ny)
+    c, fx = cell_frac(col, nx)
+    r, fy = cell_frac(row, ny)
     c1 = min(c + 1, nx - 1)
     r1 = min(r + 1, ny - 1)
     gx = ((h[r, c1] - h[r, c]) * (1.0 - fy) + (h[r1, c1] - h[r1, c]) * fy) / dx if c1 > c else 0.0

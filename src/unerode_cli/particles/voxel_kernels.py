@@ -18,8 +18,7 @@ import math
 import numba
 import numpy as np
 
-from unerode_cli.particles.terrain_kernels import _cell_frac
-from unerode_cli.volume.voxel_kernels import column_top
+from unerode_cli.volume.voxel_kernels import cell_frac, column_top
 
 #: Newton steps of ``project``, the longest move of one (in voxels) and the level below which
 #: a point is on the surface (a thousandth of a voxel of a unit-slope density).
@@ -50,8 +49,8 @@ def level_at(vol, col, row, kk):
     """Trilinear f at grid coordinates (col, row) = (x/dx, y/dy) and layer coordinate
     kk = (z − z0)/dz − ½ (dimensionless; > 0 in the ground)."""
     ny, nx, nz = vol.shape
-    c, fx = _cell_frac(col, nx)
-    r, fy = _cell_frac(row, ny)
+    c, fx = cell_frac(col, nx)
+    r, fy = cell_frac(row, ny)
     k, fz = _layer_frac(kk, nz)
     c1 = min(c + 1, nx - 1)
     r1 = min(r + 1, ny - 1)
@@ -73,8 +72,8 @@ def level_and_gradient(vol, col, row, kk, dx, dy, dz):
     """Trilinear f and its gradient ∇f (1/m) at (col, row, kk) (see ``level_at``).
     Returns (f, ∂f/∂x, ∂f/∂y, ∂f/∂z); a derivative across a clamped border is 0."""
     ny, nx, nz = vol.shape
-    c, fx = _cell_frac(col, nx)
-    r, fy = _cell_frac(row, ny)
+    c, fx = cell_frac(col, nx)
+    r, fy = cell_frac(row, ny)
     k, fz = _layer_frac(kk, nz)
     c1 = min(c + 1, nx - 1)
     r1 = min(r + 1, ny - 1)

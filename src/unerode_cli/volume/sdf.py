@@ -69,6 +69,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
+from unerode_cli.volume.voxel_kernels import bilinear, cell_frac
 from unerode_cli.volume.voxels import DensityVoxels, VoxelGeometry
 
 Vec3 = tuple[float, float, float]
@@ -306,32 +307,13 @@ class Base:
         return self.codes, self.params, self.depth, self.heights, self.norms, self.grid
 
 
-@numba.njit(cache=True, inline="always")
-def _node_frac(s, n):
-    """Lower node index and fraction of a node coordinate ``s`` (nodes at integers), clamped
-    to the n nodes."""
-    s = min(max(s, 0.0), n - 1.0)
-    i = min(int(s), n - 2) if n > 1 else 0
-    return i, s - i
-
-
-@numba.njit(cache=True)
-def _bilinear(a, col, row):
-    """Bilinear a[row, column] at node coordinates (col, row), clamped at the border."""
-    ny, nx = a.shape
-    c, fx = _node_frac(col, nx)
-    r, fy = _node_frac(row, ny)
-    c1, r1 = min(c + 1, nx - 1), min(r + 1, ny - 1)
-    return (a[r, c] * (1.0 - fx) + a[r, c1] * fx) * (1.0 - fy) + (a[r1, c] * (1.0 - fx) + a[r1, c1] * fx) * fy
-
-
 @numba.njit(cache=True)
 def _trilinear(g, col, row, layer):
     """Trilinear g[row, column, layer] at node coordinates (col, row, layer), clamped."""
     ny, nx, nz = g.shape
-    c, fx = _node_frac(col, nx)
-    r, fy = _node_frac(row, ny)
-    k, fz = _node_frac(layer, nz)
+    c, fx = cell_frac(col, nx)
+    r, fy = cell_frac(row, ny)
+    k, fz = cell_frac(layer, nz)
     c1, r1, k1 = min(c + 1, nx - 1), min(r + 1, ny - 1), min(k + 1, nz - 1)
     lo = ((g[r, c, k] * (1.0 - fx) + g[r, c1, k] * fx) * (1.0 - fy)
           + (g[r1, c, k] * (1.0 - fx) + g[r1, c1, k] * fx) * fy)
@@ -345,7 +327,7 @@ def _primitive(code, prm, heights, norms, grid, dx, dy, z0, dz, x, y, z):
     """f (m) of one primitive at (x, y, z) (m, the frame); ``prm`` its parameters."""
     if code == SURFACE:
         col, row = x / dx, y / dy
-        return (z - _bilinear(heights, col, row)) / _bilinear(norms, col, row)
+        return (z - bilinear(heights, col, row)) / bilinear(norms, col, row)
     if code == PLANE:
         return prm[3] * (x - prm[0]) + prm[4] * (y - prm[1]) + prm[5] * (z - prm[2])
     if code == BOX:
@@ -439,9 +421,9 @@ def _value_gradient(g, x, y, z, dx, dy, z0, dz):
     """Trilinear g at (x, y, z) (m) and its gradient (1/m of g's unit): (g, ∂x, ∂y, ∂z); a
     derivative across a clamped border is 0."""
     ny, nx, nz = g.shape
-    c, fx = _node_frac(x / dx, nx)
-    r, fy = _node_frac(y / dy, ny)
-    k, fz = _node_frac((z - z0) / dz - 0.5, nz)
+    c, fx = cell_frac(x / dx, nx)
+    r, fy = cell_frac(y / dy, ny)
+    k, fz = cell_frac((z - z0) / dz - 0.5, nz)
     c1, r1, k1 = min(c + 1, nx - 1), min(r + 1, ny - 1), min(k + 1, nz - 1)
     a0 = g[r, c, k] * (1.0 - fx) + g[r, c1, k] * fx
     a1 = g[r1, c, k] * (1.0 - fx) + g[r1, c1, k] * fx

@@ -14,6 +14,26 @@ import numba
 import numpy as np
 
 
+@numba.njit(cache=True, inline="always")
+def cell_frac(s, n):
+    """Lower index and fraction of a coordinate ``s`` on n points at the integers (cell centres
+    or nodes), clamped to them."""
+    s = min(max(s, 0.0), n - 1.0)
+    i = min(int(s), n - 2) if n > 1 else 0
+    return i, s - i
+
+
+@numba.njit(cache=True)
+def bilinear(a, col, row):
+    """Bilinear a[row, column] at coordinates (col, row) of its points (e.g. (x/dx, y/dy)),
+    clamped at the border."""
+    ny, nx = a.shape
+    c, fx = cell_frac(col, nx)
+    r, fy = cell_frac(row, ny)
+    c1, r1 = min(c + 1, nx - 1), min(r + 1, ny - 1)
+    return (a[r, c] * (1.0 - fx) + a[r, c1] * fx) * (1.0 - fy) + (a[r1, c] * (1.0 - fx) + a[r1, c1] * fx) * fy
+
+
 @numba.njit(cache=True)
 def column_top(values, r, c, z0, dz):
     """Elevation (m) of the highest ground surface of column (r, c) of a density (or of binary
