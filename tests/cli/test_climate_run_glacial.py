@@ -45,8 +45,11 @@ def rows(path: Path) -> list[dict[str, str]]:
 def test_glaciers_along_the_chronology_are_glaciate_with_the_sea_level_of_climate_run(
         tmp_path: Path, dem: Path) -> None:
     past, glaciated, rivers = tmp_path / "past.tif", tmp_path / "glaciated.tif", tmp_path / "rivers.tif"
-    result = run_cli("climate-run", dem, past, "--chronology", LR04, "--process",
-                     "glacial,hillslope,debris,fluvial", *ALONG, "--preview", tmp_path / "past.png")
+    along = ("--chronology", LR04, "--process", "glacial,hillslope,debris,fluvial", *ALONG, "--preview",
+             tmp_path / "past.png")
+    stopped = run_cli("climate-run", dem, past, *along, "--max-steps", 30)  # then resumed: same result
+    assert stopped.returncode == 0 and "stopped after step 30" in stopped.stderr + stopped.stdout
+    result = run_cli("climate-run", dem, past, *along, "--resume")
     assert result.returncode == 0, result.stderr
     same = run_cli("glaciate", dem, glaciated, "--ela-chronology", LR04, *ALONG,
                    "--timeline", tmp_path / "glaciated.csv")
@@ -94,7 +97,6 @@ def test_glaciers_along_the_chronology_are_glaciate_with_the_sea_level_of_climat
     (("--process", "glacial", *ALONG, "--K", 1e-5), "--k does not apply with --process glacial"),
     (("--process", "glacial", *ALONG, "--snapshots", 22), "--snapshots does not apply"),
     (("--process", "glacial", *ALONG, "--outlets", "S"), "--outlets does not apply"),
-    (("--process", "glacial", *ALONG, "--max-steps", 3), "--max-steps does not apply"),
 ])
 def test_runs_the_glaciers_cannot_make_are_refused(tmp_path: Path, dem: Path, args: tuple,
                                                     words: str) -> None:

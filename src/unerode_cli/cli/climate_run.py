@@ -16,6 +16,7 @@ from unerode_cli.cli.options import (
     METRES,
     OUTPUT_PANEL,
     POSITIVE_YEARS,
+    CheckpointEvery,
     Coast,
     Cog,
     CreationOptions,
@@ -24,12 +25,14 @@ from unerode_cli.cli.options import (
     DtypeOpt,
     EdgeBase,
     InputDem,
+    MaxSteps,
     Method,
     Outlets,
     OutputDem,
     Overwrite,
     Preview,
     Quiet,
+    Resume,
     Verbose,
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
@@ -88,9 +91,9 @@ def climate_run(
     edge_base: EdgeBase = None,
     inflow_from: Annotated[Path | None, typer.Option("--inflow-from", help="A coarse climate-run over a larger area, run with --write-fluxes (its output raster or its OUT_fluxes folder): the water and sediment crossing into this map, and the level of its edges, are read off it at each step (000 §6.3.1).", rich_help_panel=BOUNDARY_PANEL)] = None,
     write_fluxes: Annotated[bool, typer.Option("--write-fluxes", help="Also write OUT_fluxes/: elevation, discharge and sediment flux rasters (m, m³/y) at --from, each snapshot and --to, for runs nested in this one (--inflow-from).", rich_help_panel=OUTPUT_PANEL)] = False,
-    checkpoint_every: Annotated[int, typer.Option(min=1, help="Write a checkpoint every this many steps.", rich_help_panel=RUN_PANEL)] = 10,
-    resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted run from its checkpoint (same inputs and options).", rich_help_panel=RUN_PANEL)] = False,
-    max_steps: Annotated[int | None, typer.Option(min=1, help="Stop after this many steps of this invocation (checkpointed; continue with --resume).", rich_help_panel=RUN_PANEL)] = None,
+    checkpoint_every: CheckpointEvery = 10,
+    resume: Resume = False,
+    max_steps: MaxSteps = None,
     no_substep: Annotated[bool, typer.Option("--no-substep", help="Refuse an unstable --dt instead of sub-stepping it.", rich_help_panel=RUN_PANEL)] = False,
     scheme: Annotated[Scheme, typer.Option(help="Slope of backward steps: limiter (000 Eq. 12) or upwind (Eq. 10).", rich_help_panel=RUN_PANEL)] = Scheme.limiter,
     method: Annotated[Method, typer.Option(help="Flow routing: mfd or d8.", rich_help_panel=RUN_PANEL)] = Method.mfd,
@@ -157,7 +160,7 @@ def _write_report(job: Any, output: Path, verbosity: int) -> None:
     """Write the report of a finished run (one stopped by --max-steps leaves its checkpoint
     and has no report yet)."""
     from unerode_cli.cli.common import say
-    from unerode_cli.jobs.climate_run import checkpoint_path
+    from unerode_cli.io.checkpoints import checkpoint_path
     from unerode_cli.jobs.report import write_report
 
     if job is not None and not checkpoint_path(output).exists():
@@ -180,6 +183,7 @@ def _run_glacial(job: ClimateJob, verbosity: int) -> None:
         timeline=timeline_path(job.output), ela_chronology=job.chronology, ela_kind=job.chronology_kind,
         ela_present=job.ela_present, ela_glacial=job.ela_glacial, from_ka=job.from_ka, to_ka=job.to_ka,
         dtype=job.dtype, cog=job.cog, co=job.co, overwrite=job.overwrite, preview=job.preview,
+        checkpoint_every=job.checkpoint_every, resume=job.resume, max_steps=job.max_steps,
         parameter_values=glacial.parameter_values, sea_level=glacial.sea_level, command=COMMAND,
         context=glacial.context,
     ))

@@ -13,14 +13,17 @@ from unerode_cli.cli.options import (
     POSITIVE_YEARS,
     Band,
     Channel,
+    CheckpointEvery,
     Cog,
     CreationOptions,
     Dtype,
     DtypeOpt,
     InputDem,
+    MaxSteps,
     Overwrite,
     Preview,
     Quiet,
+    Resume,
     Verbose,
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
@@ -104,6 +107,9 @@ def glaciate(
     co: CreationOptions = None,
     overwrite: Overwrite = False,
     preview: Preview = None,
+    checkpoint_every: CheckpointEvery = 100,
+    resume: Resume = False,
+    max_steps: MaxSteps = None,
     verbose: Verbose = 0,
     quiet: Quiet = 0,
     parameter_values: dict[str, str | None] | None = None,
@@ -126,7 +132,8 @@ def glaciate(
             ela_lapse_rate=ela_lapse_rate, from_ka=from_ka, to_ka=to_ka,
             diagnostic=diagnostic,
             band=band, channel=channel, dtype=dtype.value, cog=cog, co=co, overwrite=overwrite,
-            preview=preview, parameter_values=parameter_values or {},
+            preview=preview, checkpoint_every=checkpoint_every, resume=resume, max_steps=max_steps,
+            parameter_values=parameter_values or {},
         )
         prepared = plan(job)
         if diagnostic:

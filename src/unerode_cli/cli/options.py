@@ -44,6 +44,10 @@ DtypeOpt = Annotated[Dtype, typer.Option("--dtype", help="Output sample type of 
 Cog = Annotated[bool, typer.Option("--cog", help="Write a Cloud-Optimized GeoTIFF.", rich_help_panel=OUTPUT_PANEL)]
 CreationOptions = Annotated[list[str] | None, typer.Option("--co", help="GDAL creation option KEY=VALUE (repeatable).", rich_help_panel=OUTPUT_PANEL)]
 Preview = Annotated[Path | None, typer.Option("--preview", help="Also write a hillshade preview PNG of the output.", rich_help_panel=OUTPUT_PANEL)]
+CHECKPOINT_PANEL = "Checkpoints"
+CheckpointEvery = Annotated[int, typer.Option(min=1, help="Write a checkpoint (.OUT.checkpoint.npz beside OUT) every this many steps.", rich_help_panel=CHECKPOINT_PANEL)]
+Resume = Annotated[bool, typer.Option("--resume", help="Continue an interrupted run from its checkpoint (same inputs and options).", rich_help_panel=CHECKPOINT_PANEL)]
+MaxSteps = Annotated[int | None, typer.Option(min=1, help="Stop after this many steps of this invocation (checkpointed; continue with --resume).", rich_help_panel=CHECKPOINT_PANEL)]
 Seed = Annotated[int, typer.Option("--seed", help="Random seed (recorded in the output's history).")]
 
 

@@ -480,7 +480,9 @@ class RunResult:
     ``eroded`` (m³ of bedrock removed), ``retries`` (multi-scale steps taken again at half their
     length, ``surface_overshoot``), and ``seconds``: wall-clock time by part of the loop
     (``WALL_TIME_PARTS``: the ice flow, transport with mass balance and erosion, the processes of
-    ice-free ground, and the rest: the checks and callbacks of ``run``)."""
+    ice-free ground, and the rest: the checks and callbacks of ``run``). ``cap`` (y): the longest
+    next step the ramp and the rejected steps allow (``run``), kept so that a run continued from
+    this result (a checkpoint) takes the steps an uninterrupted one would."""
 
     state: GlacierState
     times: list[float]
@@ -494,6 +496,7 @@ class RunResult:
     eroded: float = 0.0
     retries: int = 0
     seconds: dict[str, float] = field(default_factory=lambda: dict.fromkeys(WALL_TIME_PARTS, 0.0))
+    cap: float = math.inf
 
     def add(self, state: GlacierState, report: StepReport) -> None:
         flow = report.flow
@@ -514,7 +517,8 @@ class RunResult:
 def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times: Sequence[float],
         on_step: Callable[[GlacierState, StepReport], None] | None = None,
         check: Callable[[GlacierState, StepReport, int], None] | None = None,
-        after: Callable[[GlacierState, float], GlacierState] | None = None) -> RunResult:
+        after: Callable[[GlacierState, float], GlacierState] | None = None,
+        result: RunResult | None = None) -> RunResult:
     """Step ``state`` to each of the end ``times`` (y, increasing, e.g. ``step_times``) in turn,
     calling ``on_step(new_state, report)`` at each of them (progress, snapshots), and
     ``check(new_state, report, k)`` after every step k (1, 2, …) taken, ramp steps included
@@ -527,11 +531,16 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
     asked (``multiscale``: laying a long step of accumulation at once leaves a steep edge that
     can blow up). Rejected steps: a multi-scale step that creates ice (``surface_overshoot``) is
     thrown away and taken again at half its length (not below ``RETRY_MIN_DT``), and the steps
-    then grow back by ``RAMP_FACTOR`` per step. Every step taken enters the volume series."""
+    then grow back by ``RAMP_FACTOR`` per step. Every step taken enters the volume series.
+
+    ``result``: a run to continue (from a checkpoint: ``state`` is its ``result.state``); its
+    series, totals and step cap go on."""
     params.validate(grid.shape)
     started = clock.perf_counter()
-    result = RunResult(state, [state.time], [ice_volume(state.thickness, grid)])
-    cap = math.inf
+    if result is None:
+        result = RunResult(state, [state.time], [ice_volume(state.thickness, grid)])
+    timed_before = sum(result.seconds.values())
+    cap = result.cap
     ramp = params.transport == "multiscale"
     for end in times:
         end = float(end)
@@ -555,10 +564,12 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
             if state.time >= end - 1e-9 * length:
                 state = replace(state, time=end)
             result.add(state, report)
+            cap *= RAMP_FACTOR
+            result.cap = cap
             if check is not None:
                 check(state, report, result.steps)
-            cap *= RAMP_FACTOR
         if on_step is not None:
             on_step(state, report)
-    result.seconds["other"] = clock.perf_counter() - started - sum(result.seconds.values())
+    timed = sum(result.seconds.values()) - timed_before
+    result.seconds["other"] += clock.perf_counter() - started - timed
     return result

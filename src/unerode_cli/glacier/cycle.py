@@ -152,7 +152,30 @@ class IceFreeErosion:
         self.seconds = dict.fromkeys(("hillslope", "drainage", "debris", "fluvial", "uplift"), 0.0)
         self._routing = None
         self._fixed: np.ndarray | None = None
+        self._routed: np.ndarray | None = None  # the surface (m) the routing was computed on
         self.removed = {"hillslope": 0.0, "debris": 0.0, "fluvial": 0.0}
+
+    def saved(self) -> dict[str, np.ndarray | int | dict[str, float]]:
+        """What ``restore`` needs to go on as if never stopped: the step count, the base level,
+        the fixed cells and routed surface of the last drainage update, the totals."""
+        empty = np.zeros((0, 0))
+        return {"steps": self.steps, "base_level": self.base_level,
+                "fixed": empty if self._fixed is None else self._fixed,
+                "routed": empty if self._routed is None else self._routed,
+                "removed": dict(self.removed), "seconds": dict(self.seconds)}
+
+    def restore(self, saved: dict) -> None:
+        """Continue from ``saved()``: the routing is computed again on the saved surface."""
+        from unerode_cli.hydro.routing import route
+
+        self.steps = int(saved["steps"])
+        self.base_level = np.asarray(saved["base_level"], dtype=bool)
+        self.removed.update(saved["removed"])
+        self.seconds.update(saved["seconds"])
+        fixed, routed = np.asarray(saved["fixed"]), np.asarray(saved["routed"])
+        if fixed.size and routed.size:
+            self._fixed, self._routed = fixed.astype(bool), routed.astype(np.float64)
+            self._routing = route(self._routed, self.grid, self._fixed, "d8")
 
     def shielded(self, thickness: np.ndarray) -> np.ndarray:
         """bool[ny, nx]: cells of the domain under ice thicker than the shield."""
@@ -185,7 +208,8 @@ class IceFreeErosion:
         if p.debris is not None or p.fluvial is not None:
             if update:
                 self._fixed = self.base_level | self.shielded(state.thickness)
-                self._routing = route(bed + state.thickness, grid, self._fixed, "d8")
+                self._routed = bed + state.thickness
+                self._routing = route(self._routed, grid, self._fixed, "d8")
                 clock.lap("drainage")
             if p.debris is not None:
                 change = debris.step(bed, grid, self._fixed, p.debris, dt, routing=self._routing)

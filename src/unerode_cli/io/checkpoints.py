@@ -9,6 +9,11 @@ import numpy as np
 from unerode_cli.io.paths import atomic_path
 
 
+def checkpoint_path(output: Path) -> Path:
+    """Where the run writing ``output`` keeps its checkpoint: ``.OUT.checkpoint.npz`` beside it."""
+    return output.with_name(f".{output.name}.checkpoint.npz")
+
+
 def write_checkpoint(path: Path, **arrays: object) -> None:
     """Save ``arrays`` (NumPy arrays, numbers or strings) to ``path`` atomically, so a crash
     leaves the previous checkpoint whole."""

@@ -19,7 +19,6 @@ command line hands that to the glaciate job (no job imports another).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import time
 from collections.abc import Callable
@@ -29,7 +28,6 @@ from typing import Any
 
 import numpy as np
 
-from unerode_cli import __version__
 from unerode_cli.climate.chronology import YEARS_PER_KA, Series
 from unerode_cli.climate.phases import PHASES, PhaseThresholds, classify
 from unerode_cli.climate.schedule import DOWNSTREAM_K_D, Schedule, downstream_mask
@@ -37,7 +35,7 @@ from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, sea_l
 from unerode_cli.climate.uplift import FACTOR_COLUMN, RATE_COLUMN, UpliftHistory
 from unerode_cli.errors import InputError
 from unerode_cli.glacier import cycle, erosion, massbalance
-from unerode_cli.io.checkpoints import read_checkpoint, write_checkpoint
+from unerode_cli.io.checkpoints import checkpoint_path, read_checkpoint, write_checkpoint
 from unerode_cli.io.chronology_files import read_age_table, read_series
 from unerode_cli.io.coarse_runs import (
     check_fluxes_folder,
@@ -48,7 +46,7 @@ from unerode_cli.io.coarse_runs import (
 )
 from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.grid_rasters import load_on_grid
-from unerode_cli.io.paths import atomic_path, check_output, file_sha256
+from unerode_cli.io.paths import atomic_path, check_output
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.yaml_files import read_yaml_mapping
@@ -57,6 +55,7 @@ from unerode_cli.processes.inflow import InflowHistory
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import COARSE, BaseLevels, base_levels_from_options, edge_base_table
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
+from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.nesting import Nesting, nest
 from unerode_cli.run.outputs import (
     AGE_TAG,
@@ -227,10 +226,6 @@ def chronology_png_path(output: Path) -> Path:
     return output.with_name(f"{output.stem}_chronology.png")
 
 
-def checkpoint_path(output: Path) -> Path:
-    return output.with_name(f".{output.name}.checkpoint.npz")
-
-
 def snapshot_path(output: Path, age_ka: float) -> Path:
     """``past.tif`` at 12 ka → ``past_12ka.tif``."""
     return output.with_name(f"{output.stem}_{age_ka:g}ka{output.suffix}")
@@ -281,14 +276,9 @@ def _fingerprint(job: ClimateJob) -> str:
     fields = asdict(job)
     for key in ("resume", "max_steps", "overwrite", "preview", "checkpoint_every"):
         fields.pop(key)
-    digest = hashlib.sha256(json.dumps(fields, sort_keys=True, default=str).encode())
-    for path in (job.source, job.chronology, job.sea_level_file, job.schedule_file,
-                 job.downstream_mask, job.dirichlet, edge_base_table(job.edge_base_choice),
-                 job.uplift_map, job.inflow, *_parameter_files(job), *_coarse_files(job)):
-        if path is not None:
-            digest.update(file_sha256(Path(path)).encode())
-    digest.update(__version__.encode())
-    return digest.hexdigest()
+    return run_fingerprint(fields, (job.source, job.chronology, job.sea_level_file, job.schedule_file,
+                                    job.downstream_mask, job.dirichlet, edge_base_table(job.edge_base_choice),
+                                    job.uplift_map, job.inflow, *_parameter_files(job), *_coarse_files(job)))
 
 
 def plan(job: ClimateJob, on_note: Callable[[str], None] | None = None) -> PreparedClimateRun:
@@ -398,9 +388,6 @@ _NOT_GLACIAL = {
     "--inflow": ("inflow", "rivers entering the map feed the fluvial model of 000 only"),
     "--inflow-from": ("inflow_from", "rivers entering the map feed the fluvial model of 000 only"),
     "--write-fluxes": ("write_fluxes", "the nesting rasters come from the fluvial model of 000 only"),
-    "--resume": ("resume", "a glacier run is not checkpointed"),
-    "--max-steps": ("max_steps", "a glacier run is not checkpointed"),
-    "--checkpoint-every": ("checkpoint_every", "a glacier run is not checkpointed"),
     "--scheme": ("scheme", "it sets the slope of backward steps, and glaciers run forward only"),
     "--thermal-constraints": ("constraints", "thermal erosion does not run with glaciers"),
     "--method": ("method", "the rivers of ice-free ground follow steepest descent (D8)"),

@@ -13,6 +13,13 @@ two bands vx, vy in m/y, x east, y along the rows, i.e. south) and basal speed (
 m/y) of the final geometry, and ice-thickness snapshots ``ICE_001.tif``... (``--ice`` or
 ``OUT_ice``) every ``--snapshot-every`` years.
 
+Checkpoints: every ``--checkpoint-every`` steps the run's whole state (bed, ice, the last
+velocities, the step cap, the totals, the timeline so far and the state of the ice-free
+processes) goes to ``.OUT.checkpoint.npz`` beside OUT; ``--resume`` continues from it with the
+steps an uninterrupted run would take, and ``--max-steps`` stops an invocation after so many
+steps (checkpointed). A finished run removes its checkpoint; a run that diverges removes it with
+everything else it wrote.
+
 A job may carry a sea level through time (``GlacierJob.sea_level``, e.g. climate-run's along the
 chronology that drives the ELA): its cells become base level of the ice-free processes
 (``glacier.cycle``) and the timeline gains a ``sea_level_m`` column.
@@ -20,10 +27,11 @@ chronology that drives the ELA): its cells become base level of the ice-free pro
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +42,7 @@ from unerode_cli.climate.chronology import YEARS_PER_KA, Series
 from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.glacier import blatter, coupled, cycle, erosion, lakes, massbalance
 from unerode_cli.hydro.outlets import outlet_mask
+from unerode_cli.io.checkpoints import checkpoint_path, read_checkpoint, write_checkpoint
 from unerode_cli.io.csv_tables import table_number, table_rows, write_table
 from unerode_cli.io.ela_files import read_ela_proxy
 from unerode_cli.io.gdal_io import WriteOptions
@@ -43,6 +52,7 @@ from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
+from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.outputs import (
     AGE_TAG,
     SEA_TAG,
@@ -121,10 +131,19 @@ class GlacierJob:
     co: list[str] | None = None
     overwrite: bool = False
     preview: Path | None = None
+    checkpoint_every: int = 100
+    resume: bool = False
+    max_steps: int | None = None
     parameter_values: dict[str, str | None] = field(default_factory=dict)
     sea_level: Callable[[float], float] | None = None
     command: str = COMMAND
     context: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def replaces(self) -> bool:
+        """Whether existing outputs may be replaced: --overwrite, or --resume (the outputs of the
+        run being continued)."""
+        return self.overwrite or self.resume
 
 
 @dataclass
@@ -142,6 +161,7 @@ class PreparedGlacierJob:
     snapshot_times: list[float]
     write: WriteOptions
     parameters: dict[str, Any]
+    fingerprint: str = ""
 
     @property
     def steps(self) -> int:
@@ -151,9 +171,10 @@ class PreparedGlacierJob:
 def plan(job: GlacierJob) -> PreparedGlacierJob:
     """Check the whole job before any work: options, outputs, inputs, parameters."""
     _check_options(job)
-    write = Outputs.from_cli(job.source, job.dtype, job.cog, job.co, job.overwrite, None).options
+    write = Outputs.from_cli(job.source, job.dtype, job.cog, job.co, job.replaces, None).options
     snapshot_times = _snapshot_times(job)
     _check_outputs(job, snapshot_times, write)
+    _check_checkpoint(job)
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
     terrain.check_valid(job.source)
     if job.preview is not None:
@@ -187,7 +208,34 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
     parameters = _provenance(job, params, given)
     return PreparedGlacierJob(job, terrain, params, thickness, ela, chronology, surface, times,
-                              snapshot_times, write, parameters)
+                              snapshot_times, write, parameters, _fingerprint(job))
+
+
+def _fingerprint(job: GlacierJob) -> str:
+    """The run's fingerprint (``run.fingerprint``): its options but those of the checkpoints,
+    the overwriting and the preview, and the contents of its input files."""
+    fields = asdict(replace(job, sea_level=None))
+    for key in ("resume", "max_steps", "overwrite", "preview", "checkpoint_every"):
+        fields.pop(key)
+    values = [v for v in job.parameter_values.values() if v is not None]
+    files = [job.source, job.ice_thickness, job.ela_chronology, job.sliding_c, job.ela, *values]
+    return run_fingerprint(fields, [f for f in files if f is not None and Path(str(f)).is_file()])
+
+
+def _check_checkpoint(job: GlacierJob) -> None:
+    """A checkpoint left by an unfinished run is continued with --resume or replaced with
+    --overwrite, never silently."""
+    if job.diagnostic or job.output is None:
+        return
+    if job.checkpoint_every < 1:
+        raise InputError(f"--checkpoint-every must be at least 1 step, got {job.checkpoint_every}.")
+    if job.max_steps is not None and job.max_steps < 1:
+        raise InputError(f"--max-steps must be at least 1 step, got {job.max_steps}.")
+    path = checkpoint_path(job.output)
+    if path.exists() and not (job.resume or job.overwrite):
+        raise InputError(f"an unfinished run left its checkpoint {path}; pass --resume to continue it "
+                         "or --overwrite to start afresh.")
+    check_output(path, True, (job.source,))
 
 
 def _check_options(job: GlacierJob) -> None:
@@ -303,11 +351,11 @@ def _check_outputs(job: GlacierJob, snapshot_times: list[float], write: WriteOpt
         raise InputError("the velocity output has two bands and must be a GeoTIFF (.tif), "
                          f"got {job.velocity.name}.")
     for path in rasters:
-        check_raster(path, write, job.overwrite, inputs)
+        check_raster(path, write, job.replaces, inputs)
     for png in pngs:
-        check_png(png, job.overwrite, inputs)
+        check_png(png, job.replaces, inputs)
     if job.timeline is not None:
-        check_output(job.timeline, job.overwrite, inputs)
+        check_output(job.timeline, job.replaces, inputs)
 
 
 def read_thickness(path: Path | None, terrain: Terrain) -> np.ndarray:
@@ -409,6 +457,12 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         if on_step is not None:
             on_step(end.time, "no ice")
     else:
+        resumed = _resume(prepared, state, ice_free, on_note)
+        if resumed is not None:
+            state, timeline, snapshots = resumed.state, resumed.timeline, resumed.snapshots
+            start -= resumed.wall
+        first = 0 if resumed is None else resumed.result.steps
+        stop_at = None if job.max_steps is None else first + job.max_steps
         hint = "lower --dt, or raise --sliding-C if the ice slides at km/y"
         bed_guard = DivergenceGuard(terrain.elevation, hint=hint)
         surface_guard = DivergenceGuard(terrain.elevation + prepared.thickness,
@@ -423,16 +477,24 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                                               outlets if ice_free is None else ice_free.base_level))
             if on_step is not None:
                 on_step(new.time, _step_info(report))
-
-        def after_step(new: coupled.GlacierState, report: coupled.StepReport) -> None:
             if any(math.isclose(new.time, t, rel_tol=1e-12) for t in prepared.snapshot_times):
                 path = snapshot_path(snapshot_base(job), len(snapshots) + 1)
                 _save_layer(prepared, new.thickness, path, "m", {"time_years": new.time}, new.time)
                 snapshots.append(path)
+            if k % job.checkpoint_every == 0 or k == stop_at:
+                _checkpoint(prepared, progress, timeline, snapshots, ice_free, time.perf_counter() - start)
+            if k == stop_at and new.time < prepared.times[-1]:
+                raise _Stopped(k, new.time)
 
+        progress = coupled.RunResult(state, [state.time], [coupled.ice_volume(state.thickness, grid)]) \
+            if resumed is None else resumed.result
+        times = prepared.times[prepared.times > state.time + 1e-9 * max(job.dt, 1.0)]
         try:
-            result = coupled.run(state, grid, prepared.params, prepared.ela, prepared.times, after_step,
-                                 check, ice_free)
+            result = coupled.run(state, grid, prepared.params, prepared.ela, times, None, check,
+                                 ice_free, progress)
+        except _Stopped as stop:
+            return (f"{job.command}: stopped after step {stop.step} (t = {stop.time:g} y of "
+                    f"{prepared.times[-1]:g}); run again with --resume to continue.")
         except coupled.UnstableStep as exc:
             raise InputError(
                 f"--dt {exc.dt:g} y is above the stable explicit ice-transport step {exc.stable:.3g} y "
@@ -451,7 +513,7 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
     bed = terrain.with_elevation(final.bed)
     bed.tags.update(_time_tags(prepared, final.time))
     assert job.output is not None
-    save(bed, Outputs(job.output, prepared.write, job.overwrite, job.preview), job.command,
+    save(bed, Outputs(job.output, prepared.write, job.replaces, job.preview), job.command,
          prepared.parameters, stats)
     if job.ice is not None:
         _save_layer(prepared, final.thickness, job.ice, "m", stats, final.time)
@@ -473,7 +535,88 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
                     f"{prepared.params.flow_max_iter} iterations (largest residual "
                     f"{result.max_residual:.2g}, "
                     f"asked {prepared.params.flow_rtol:g}); their velocities are approximate")
+    checkpoint_path(job.output).unlink(missing_ok=True)
     return summary
+
+
+class _Stopped(Exception):
+    """--max-steps reached (after a checkpoint): ``step`` steps done, at ``time`` (y)."""
+
+    def __init__(self, step: int, time_y: float) -> None:
+        super().__init__(f"stopped after step {step}")
+        self.step, self.time = step, time_y
+
+
+@dataclass
+class _Resumed:
+    """A run continued from its checkpoint: its state, totals, timeline rows, snapshots written
+    and wall-clock seconds so far."""
+
+    state: coupled.GlacierState
+    result: coupled.RunResult
+    timeline: list[dict[str, Any]]
+    snapshots: list[Path]
+    wall: float
+
+
+_RESULT_TOTALS = ("steps", "substeps", "resolves", "evaluations", "unconverged", "max_residual", "eroded",
+                  "retries", "cap")
+
+
+def _checkpoint(prepared: PreparedGlacierJob, result: coupled.RunResult, timeline: list[dict[str, Any]],
+                snapshots: list[Path], ice_free: cycle.IceFreeErosion | None, wall: float) -> None:
+    """Write the run's whole state to its checkpoint (module docstring)."""
+    job, state = prepared.job, result.state
+    assert job.output is not None
+    lattice = state.lattice if state.lattice is not None else (np.zeros(0), np.zeros(0))
+    totals = {name: getattr(result, name) for name in _RESULT_TOTALS}
+    free = ice_free.saved() if ice_free is not None else None
+    arrays = {}
+    if free is not None:
+        arrays = {"free_base_level": free["base_level"], "free_fixed": free["fixed"],
+                  "free_routed": free["routed"]}
+        free = {"steps": free["steps"], "removed": free["removed"], "seconds": free["seconds"]}
+    write_checkpoint(checkpoint_path(job.output), fingerprint=prepared.fingerprint, bed=state.bed,
+                     thickness=state.thickness, time=state.time, lattice_u=lattice[0], lattice_v=lattice[1],
+                     series_times=np.array(result.times), series_volumes=np.array(result.volumes),
+                     totals=json.dumps({**totals, "seconds": result.seconds, "wall": wall}),
+                     timeline=json.dumps(timeline), snapshots=json.dumps([str(p) for p in snapshots]),
+                     ice_free=json.dumps(free), **arrays)
+
+
+def _resume(prepared: PreparedGlacierJob, start: coupled.GlacierState, ice_free: cycle.IceFreeErosion | None,
+            on_note) -> _Resumed | None:
+    """The run to continue with --resume (None: start from the beginning)."""
+    job = prepared.job
+    assert job.output is not None
+    path = checkpoint_path(job.output)
+    if not job.resume:
+        return None
+    if not path.exists():
+        if on_note is not None:
+            on_note(f"note: no checkpoint {path.name} to resume from; starting from the beginning.")
+        return None
+    saved = read_checkpoint(path)
+    if str(saved["fingerprint"]) != prepared.fingerprint:
+        raise InputError(f"the checkpoint {path} belongs to a run with other inputs or options; run "
+                         "without --resume (or with the same options).")
+    lattice = (saved["lattice_u"], saved["lattice_v"]) if saved["lattice_u"].size else None
+    state = coupled.GlacierState(saved["bed"], saved["thickness"], float(saved["time"]), lattice)
+    totals = json.loads(str(saved["totals"]))
+    result = coupled.RunResult(state, list(map(float, saved["series_times"])),
+                               list(map(float, saved["series_volumes"])),
+                               seconds={**dict.fromkeys(coupled.WALL_TIME_PARTS, 0.0), **totals["seconds"]},
+                               **{name: totals[name] for name in _RESULT_TOTALS})
+    free = json.loads(str(saved["ice_free"]))
+    if (free is None) != (ice_free is None):
+        raise InputError(f"the checkpoint {path} does not match this run's processes of ice-free ground.")
+    if ice_free is not None:
+        ice_free.restore({**free, "base_level": saved["free_base_level"], "fixed": saved["free_fixed"],
+                          "routed": saved["free_routed"]})
+    if on_note is not None:
+        on_note(f"note: resuming after step {result.steps} (t = {state.time:g} y of {prepared.times[-1]:g}).")
+    return _Resumed(state, result, json.loads(str(saved["timeline"])),
+                    [Path(p) for p in json.loads(str(saved["snapshots"]))], float(totals["wall"]))
 
 
 def _write_chronology_plot(prepared: PreparedGlacierJob, result: coupled.RunResult) -> None:
@@ -615,7 +758,7 @@ def _save_layer(prepared: PreparedGlacierJob, values: np.ndarray, path: Path, un
     layer.tags["UNIT"] = unit
     if time_years is not None:
         layer.tags[TIME_TAG] = repr(time_years)
-    save(layer, Outputs(path, prepared.write, prepared.job.overwrite), prepared.job.command,
+    save(layer, Outputs(path, prepared.write, prepared.job.replaces), prepared.job.command,
          prepared.parameters, stats, elevation_preview=False)
 
 
