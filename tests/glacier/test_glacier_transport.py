@@ -43,6 +43,21 @@ def test_open_edges_lose_exactly_the_outflux():
     assert lost == pytest.approx(20.0 * 50.0 * dt * 10 * grid.dy, rel=1e-12)  # east face only
 
 
+def test_an_open_edge_lets_the_ice_out_at_the_speed_of_the_ice_inside_it():
+    """A glacier leaving the map whose edge cell is slower than the cell inside it (the
+    stress-free edge slowed by its own rising surface) still lets out what reaches it: a uniform
+    thickness does not pile up at the edge."""
+    grid = Grid.full((3, 8), 100.0)
+    h = np.full((3, 8), 300.0)
+    u = np.tile(np.array([20.0, 22, 24, 26, 28, 30, 32, 10]), (3, 1))  # the east edge dams at 10 m/y
+    div = transport.flux_divergence(h, u, np.zeros_like(u), grid, "open")
+    inflow = 0.5 * (32.0 + 10.0) * 300.0 / 100.0
+    assert div[1, -1] == pytest.approx(32.0 * 300.0 / 100.0 - inflow, rel=1e-12)  # out at 32 m/y
+    assert div[1, -1] > 0.0  # with the edge's own 10 m/y it would gain 3.3 m/y
+    west = transport.flux_divergence(h, -u[:, ::-1], np.zeros_like(u), grid, "open")
+    np.testing.assert_allclose(west[:, ::-1], div, rtol=1e-12)
+
+
 def test_uniform_velocity_translates_a_bump():
     nx, dx, speed = 200, 50.0, 12.0
     grid = Grid.full((3, nx), dx)

@@ -6,7 +6,15 @@ upwind side with a minmod-limited linear slope (MUSCL), H_face = H_up ± ½·min
 which is between ½ and 3/2 of H_up: a face never carries ice out of an empty cell.
 
 Edges (``mode``): 0 periodic (wrap), 1 closed (no flux through the outer faces), 2 open
-(outflow through the outer faces with the edge cell's thickness, no inflow).
+(outflow through the outer faces with the edge cell's thickness, no inflow). An open face lets
+the ice out at the faster of the edge cell's normal velocity and that of the cell inside it. The
+edge cell's own velocity alone dams the ice: where a glacier leaves the map, the stress-free
+edge node has lattice cells on its inner side only, so a surface that rises into the edge cell
+drives that node backwards; the edge then slows, lets out less, thickens, and its surface
+rises more. On Grindelwald at 92 m (87 ka) the east edge, where the upper Aar basin's ice
+leaves the map, stood 52 m above the cell inside it and moved at 24 m/y against 41 m/y there,
+under 1014 m of ice, the thickest of the map; with the faster velocity the edge drained to
+825 m in 29 steps of 50 y.
 """
 
 from __future__ import annotations
@@ -51,10 +59,10 @@ def flux_divergence(h, u, v, dx, dy, mode):
                 else:
                     hf = _face_thickness(h[j, (b + 1) % nx], h[j, b], h[j, a], periodic or b < nx - 1, True)
             elif i == -1:  # open west edge: outflow only
-                uf = min(u[j, 0], 0.0)
+                uf = min(u[j, 0], u[j, min(1, nx - 1)], 0.0)
                 hf = h[j, 0]
             else:  # open east edge
-                uf = max(u[j, nx - 1], 0.0)
+                uf = max(u[j, nx - 1], u[j, max(nx - 2, 0)], 0.0)
                 hf = h[j, nx - 1]
             flux = uf * hf / dx
             if i >= 0:
@@ -74,10 +82,10 @@ def flux_divergence(h, u, v, dx, dy, mode):
                 else:
                     hf = _face_thickness(h[(b + 1) % ny, i], h[b, i], h[a, i], periodic or b < ny - 1, True)
             elif j == -1:
-                vf = min(v[0, i], 0.0)
+                vf = min(v[0, i], v[min(1, ny - 1), i], 0.0)
                 hf = h[0, i]
             else:
-                vf = max(v[ny - 1, i], 0.0)
+                vf = max(v[ny - 1, i], v[max(ny - 2, 0), i], 0.0)
                 hf = h[ny - 1, i]
             flux = vf * hf / dy
             if j >= 0:
