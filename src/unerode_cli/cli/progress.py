@@ -58,13 +58,14 @@ def simulated_time_bar(total_years: float, description: str,
     """Yield ``advance(years, info)``, to be called after each step with the simulated years
     done so far: a bar in simulated years with their rate (y/s) and the time left at that rate
     on a terminal; with ``-v`` one line per step (years done, rate, time left and ``info``, e.g.
-    the solver's iterations and residual); nothing with ``-q`` or when stderr is not a terminal."""
+    the solver's iterations and residual); nothing with ``-q`` or when stderr is not a terminal.
+    The rate is measured from the first step reported on, so that a run resumed from a checkpoint
+    (whose first report is already far into the run) gets a true time left."""
+    pace = _Pace()
     if verbosity >= DETAIL:
-        start = time.perf_counter()
 
         def line(years: float, info: str = "") -> None:
-            wall = time.perf_counter() - start
-            rate = years / wall if wall > 0 else 0.0
+            rate = pace.rate(years)
             left = (total_years - years) / rate if rate > 0 else float("nan")
             say(f"{description} {years:,.0f}/{total_years:,.0f} y ({rate:,.3g} y/s, {left:,.0f} s left)"
                 f"{': ' + info if info else ''}", verbosity, DETAIL)
@@ -81,13 +82,27 @@ def simulated_time_bar(total_years: float, description: str,
                TextColumn("{task.completed:,.0f}/{task.total:,.0f} y"),
                TextColumn("{task.fields[rate]}"), TextColumn("{task.fields[info]}"),
                TimeElapsedColumn(), TimeRemainingColumn())
-    start = time.perf_counter()
     with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
         task = bar.add_task(description, total=total_years, info="", rate="")
 
         def advance(years: float, info: str = "") -> None:
-            wall = time.perf_counter() - start
-            rate = f"{years / wall:,.3g} y/s" if wall > 0 else ""
-            bar.update(task, completed=years, info=info, rate=rate)
+            rate = pace.rate(years)
+            bar.update(task, completed=years, info=info, rate=f"{rate:,.3g} y/s" if rate > 0 else "")
 
         yield advance
+
+
+class _Pace:
+    """Simulated years per wall-clock second since the first report; 0 (not known yet) at the
+    first report, whose step also loads the compiled kernels."""
+
+    def __init__(self) -> None:
+        self.first: tuple[float, float] | None = None  # (years, wall clock) of the first report
+
+    def rate(self, years: float) -> float:
+        now = time.perf_counter()
+        if self.first is None:
+            self.first = (years, now)
+            return 0.0
+        done, wall = years - self.first[0], now - self.first[1]
+        return done / wall if wall > 0 and done > 0 else 0.0
