@@ -6,12 +6,24 @@ from pathlib import Path
 
 import numpy as np
 
-from unerode_cli.io.paths import atomic_path
+from unerode_cli.io.paths import atomic_path, check_output
 
 
 def checkpoint_path(output: Path) -> Path:
     """Where the run writing ``output`` keeps its checkpoint: ``.OUT.checkpoint.npz`` beside it."""
     return output.with_name(f".{output.name}.checkpoint.npz")
+
+
+def check_checkpoint(output: Path, resume: bool, overwrite: bool, inputs: tuple[Path, ...]) -> None:
+    """Refuse (InputError, via ``check_output``) a checkpoint left by an unfinished run of
+    ``output`` unless it is continued (--resume) or replaced (--overwrite): never silently."""
+    from unerode_cli.errors import InputError
+
+    path = checkpoint_path(output)
+    if path.exists() and not (resume or overwrite):
+        raise InputError(f"an unfinished run left its checkpoint {path}; pass --resume to continue it "
+                         "or --overwrite to start afresh.")
+    check_output(path, True, inputs)
 
 
 def write_checkpoint(path: Path, **arrays: object) -> None:

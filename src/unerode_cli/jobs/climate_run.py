@@ -35,7 +35,7 @@ from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, sea_l
 from unerode_cli.climate.uplift import FACTOR_COLUMN, RATE_COLUMN, UpliftHistory
 from unerode_cli.errors import InputError
 from unerode_cli.glacier import cycle, erosion, massbalance
-from unerode_cli.io.checkpoints import checkpoint_path, read_checkpoint, write_checkpoint
+from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from unerode_cli.io.chronology_files import read_age_table, read_series
 from unerode_cli.io.coarse_runs import (
     check_fluxes_folder,
@@ -561,11 +561,7 @@ def _uplift_history(job: ClimateJob, table: str | None, terrain: Terrain,
 def _check_checkpoint(job: ClimateJob) -> None:
     """A checkpoint left by an unfinished run is continued with --resume or replaced with
     --overwrite, never silently."""
-    path = checkpoint_path(job.output)
-    if path.exists() and not (job.resume or job.overwrite):
-        raise InputError(f"an unfinished run left its checkpoint {path}; pass --resume to continue it "
-                         "or --overwrite to start afresh.")
-    check_output(path, True, (job.source,))
+    check_checkpoint(job.output, job.resume, job.overwrite, (job.source,))
 
 
 def step_values(prepared: PreparedClimateRun, k: int) -> tuple[dict[str, Any], dict[str, float]]:

@@ -42,7 +42,7 @@ from unerode_cli.climate.chronology import YEARS_PER_KA, Series
 from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.glacier import blatter, coupled, cycle, erosion, lakes, massbalance
 from unerode_cli.hydro.outlets import outlet_mask
-from unerode_cli.io.checkpoints import checkpoint_path, read_checkpoint, write_checkpoint
+from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path, read_checkpoint, write_checkpoint
 from unerode_cli.io.csv_tables import table_number, table_rows, write_table
 from unerode_cli.io.ela_files import read_ela_proxy
 from unerode_cli.io.gdal_io import WriteOptions
@@ -231,11 +231,7 @@ def _check_checkpoint(job: GlacierJob) -> None:
         raise InputError(f"--checkpoint-every must be at least 1 step, got {job.checkpoint_every}.")
     if job.max_steps is not None and job.max_steps < 1:
         raise InputError(f"--max-steps must be at least 1 step, got {job.max_steps}.")
-    path = checkpoint_path(job.output)
-    if path.exists() and not (job.resume or job.overwrite):
-        raise InputError(f"an unfinished run left its checkpoint {path}; pass --resume to continue it "
-                         "or --overwrite to start afresh.")
-    check_output(path, True, (job.source,))
+    check_checkpoint(job.output, job.resume, job.overwrite, (job.source,))
 
 
 def _check_options(job: GlacierJob) -> None:
@@ -457,9 +453,9 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         if on_step is not None:
             on_step(end.time, "no ice")
     else:
-        resumed = _resume(prepared, state, ice_free, on_note)
+        resumed = _resume(prepared, ice_free, on_note)
         if resumed is not None:
-            state, timeline, snapshots = resumed.state, resumed.timeline, resumed.snapshots
+            state, timeline, snapshots = resumed.result.state, resumed.timeline, resumed.snapshots
             start -= resumed.wall
         first = 0 if resumed is None else resumed.result.steps
         stop_at = None if job.max_steps is None else first + job.max_steps
@@ -549,10 +545,9 @@ class _Stopped(Exception):
 
 @dataclass
 class _Resumed:
-    """A run continued from its checkpoint: its state, totals, timeline rows, snapshots written
-    and wall-clock seconds so far."""
+    """A run continued from its checkpoint: its state and totals (``result``), timeline rows,
+    snapshots written and wall-clock seconds so far."""
 
-    state: coupled.GlacierState
     result: coupled.RunResult
     timeline: list[dict[str, Any]]
     snapshots: list[Path]
@@ -584,8 +579,7 @@ def _checkpoint(prepared: PreparedGlacierJob, result: coupled.RunResult, timelin
                      ice_free=json.dumps(free), **arrays)
 
 
-def _resume(prepared: PreparedGlacierJob, start: coupled.GlacierState, ice_free: cycle.IceFreeErosion | None,
-            on_note) -> _Resumed | None:
+def _resume(prepared: PreparedGlacierJob, ice_free: cycle.IceFreeErosion | None, on_note) -> _Resumed | None:
     """The run to continue with --resume (None: start from the beginning)."""
     job = prepared.job
     assert job.output is not None
@@ -615,7 +609,7 @@ def _resume(prepared: PreparedGlacierJob, start: coupled.GlacierState, ice_free:
                           "routed": saved["free_routed"]})
     if on_note is not None:
         on_note(f"note: resuming after step {result.steps} (t = {state.time:g} y of {prepared.times[-1]:g}).")
-    return _Resumed(state, result, json.loads(str(saved["timeline"])),
+    return _Resumed(result, json.loads(str(saved["timeline"])),
                     [Path(p) for p in json.loads(str(saved["snapshots"]))], float(totals["wall"]))
 
 
