@@ -112,6 +112,23 @@ def test_blatter_run_writes_the_velocities_of_the_final_geometry(tmp_path: Path)
 
 
 @pytest.mark.slow
+def test_the_transport_cfl_reaches_the_multiscale_step(tmp_path: Path) -> None:
+    """--transport-cfl is recorded in the sidecar and changes the multi-scale steps where the ice
+    moves (``coupled._multiscale_cfl``)."""
+    dem = write_geotiff(tmp_path / "v.tif", valley(12, 18, 300.0, base=2400.0, head=900.0, scale=2000.0
+                                                   ).astype(np.float32), _transform(300.0))
+    volumes = {}
+    for c in (0.1, 0.05):
+        out = tmp_path / f"bed_{c}.tif"
+        result = run_cli("glaciate", dem, out, "--ela", ELA, "--duration", 300, "--dt", 50, "--layers", 5,
+                         "--transport-cfl", c, "--no-hillslope", "--no-debris", "--no-fluvial")
+        assert result.returncode == 0, result.stderr
+        sidecar = json.loads((tmp_path / f"bed_{c}.tif.json").read_text())
+        assert sidecar["parameters"]["transport_cfl"] == c
+        volumes[c] = sidecar["statistics"]["final_ice_volume_m3"]
+    assert volumes[0.05] != pytest.approx(volumes[0.1], rel=1e-3)
+
+
 def test_blatter_valley_glacier_turns_the_v_into_a_u(tmp_path: Path) -> None:
     """Blatter–Pattyn flow with sliding erodes the lower walls most, widening the floor: the
     power-law exponent b of the cross-sections (1 for a V, 2 for a U) rises. Measured after
@@ -206,6 +223,8 @@ def test_ela_time_table(tmp_path: Path, valley_dem: Path) -> None:
     (("--ela", "nan"), "finite"),
     (("--ela", "3000", "--transport", "explicit", "--no-substep", "--dt", 50, "--iceflow", "sia"),
      "--no-substep"),
+    (("--transport-cfl", 0), "--transport-cfl"),
+    (("--transport-cfl", 1.5), "--transport-cfl"),
 ])
 def test_bad_options_exit_2(tmp_path: Path, valley_dem: Path, args, mentions) -> None:
     ice = write_geotiff(tmp_path / "h0.tif", np.full((40, 60), 100.0, np.float32), _transform(DX))
