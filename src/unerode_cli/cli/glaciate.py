@@ -28,7 +28,7 @@ from unerode_cli.cli.options import (
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
 from unerode_cli.cli.values import Number
-from unerode_cli.glacier import cycle, erosion, massbalance
+from unerode_cli.glacier import coupled, cycle, erosion, massbalance
 
 
 class IceFlow(str, Enum):
@@ -78,7 +78,7 @@ def glaciate(
     boundary: Annotated[Edges, typer.Option(help="Domain edges: open (stress free, ice leaves) or periodic (wrap around, e.g. ISMIP-HOM).", rich_help_panel=FLOW_PANEL)] = Edges.open,
     background_slope: Annotated[float, typer.Option("--background-slope", parser=Number("degrees"), help="Uniform inclination (degrees) along +x (east) added to bed and surface, for periodic tilted slabs (ISMIP-HOM: 0.5).", rich_help_panel=FLOW_PANEL)] = 0.0,
     transport: Annotated[Transport, typer.Option(help="Ice transport (001 Eq. 1): multiscale (adaptive long steps, 001 §5) or explicit (sub-stepped at the stability limit).")] = Transport.multiscale,
-    transport_cfl: Annotated[float, typer.Option("--transport-cfl", parser=Number(minimum=0.0, maximum=1.0, above=True), help="CFL number c of the multi-scale local step (001 §5: 0.1). Under thick fast ice (an ice sheet of 250 m cells) 0.05 keeps one-cell grooves from growing into a divergence; where the ice moves, steps then go half as far towards its steady state.")] = 0.1,
+    transport_cfl: Annotated[float, typer.Option("--transport-cfl", parser=Number(minimum=0.0, maximum=1.0, above=True), help="CFL number c of the multi-scale local step (001 §5: 0.1). Under thick fast ice (an ice sheet of 250 m cells) 0.05 keeps one-cell grooves from growing into a divergence; where the ice moves, steps then go half as far towards its steady state.")] = coupled.MULTISCALE_CFL,
     no_substep: Annotated[bool, typer.Option("--no-substep", help="With --transport explicit: refuse a --dt above the stability limit instead of sub-stepping it.")] = False,
     erode: Annotated[bool, typer.Option("--erosion/--no-erosion", help="Erode the bed by abrasion and quarrying under the sliding ice (001 §6.1).")] = True,
     no_hillslope: Annotated[bool, typer.Option("--no-hillslope", help="Switch off hill-slope diffusion (001 §6.4), which acts where the ice is thin.", rich_help_panel=GROUND_PANEL)] = False,

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from unerode_cli.errors import InputError
 from unerode_cli.io.paths import atomic_path, check_output
 
 
@@ -17,8 +18,6 @@ def checkpoint_path(output: Path) -> Path:
 def check_checkpoint(output: Path, resume: bool, overwrite: bool, inputs: tuple[Path, ...]) -> None:
     """Refuse (InputError, via ``check_output``) a checkpoint left by an unfinished run of
     ``output`` unless it is continued (--resume) or replaced (--overwrite): never silently."""
-    from unerode_cli.errors import InputError
-
     path = checkpoint_path(output)
     if path.exists() and not (resume or overwrite):
         raise InputError(f"an unfinished run left its checkpoint {path}; pass --resume to continue it "
