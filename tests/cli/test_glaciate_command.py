@@ -132,17 +132,23 @@ def test_the_transport_cfl_reaches_the_multiscale_step(tmp_path: Path) -> None:
 def test_blatter_valley_glacier_turns_the_v_into_a_u(tmp_path: Path) -> None:
     """Blatter–Pattyn flow with sliding erodes the lower walls most, widening the floor: the
     power-law exponent b of the cross-sections (1 for a V, 2 for a U) rises. Measured after
-    1000 y of strong abrasion: 1.24 → 1.66, 1.59, 1.48 along the glaciated valley (~12 s)."""
+    1000 y of strong abrasion: 1.24 → 1.66, 1.59, 1.48 along the glaciated valley (~12 s). The
+    map's edges are the base level of glacial erosion too: the ice on them does not lower them."""
     bed = valley(16, 24, 250.0, base=2400.0, head=900.0, scale=2000.0)
     dem = write_geotiff(tmp_path / "v.tif", bed.astype(np.float32), _transform(250.0))
-    out = tmp_path / "bed.tif"
+    out, ice = tmp_path / "bed.tif", tmp_path / "ice.tif"
     result = run_cli("glaciate", dem, out, "--ela", ELA, "--duration", 1000, "--dt", 50,
-                     "--sliding-C", 3e4, "--k-e", 2e-4, "--k-q", 0)
+                     "--sliding-C", 3e4, "--k-e", 2e-4, "--k-q", 0, "--ice", ice, "--dtype", "float64")
     assert result.returncode == 0, result.stderr
     before, after = read_terrain(dem).elevation, read_terrain(out).elevation
     for column in (2, 4, 8):
         assert _power_law_exponent(before[:, column], 6) == pytest.approx(1.24, abs=0.01)
         assert _power_law_exponent(after[:, column], 6) > 1.4
+    edge = np.zeros(bed.shape, dtype=bool)
+    edge[[0, -1], :] = edge[:, [0, -1]] = True
+    assert read_terrain(ice).elevation[edge].max() > 20.0  # measured 34 m at the valley's head
+    np.testing.assert_array_equal(after[edge], before[edge])
+    assert (before - after)[~edge].max() > 5.0
 
 
 # --- diagnostic mode: ISMIP-HOM B ----------------------------------------------------------------

@@ -100,6 +100,30 @@ def test_inputs_are_not_modified_and_erosion_budget_adds_up():
     assert off.eroded == 0.0
 
 
+
+def test_the_held_bed_is_not_eroded_and_the_rest_erodes_as_before():
+    """The map's outlets are glacial erosion's base level too (``coupled._erosion_rate``): the
+    tongue that leaves the valley through its east edge lowers the edge by 7.7 m in 2000 y when
+    free; held, the edge stays and the trunk inside erodes as it did (measured: within 1 %)."""
+    from unerode_cli.hydro import outlet_mask
+
+    bed, grid = _valley()
+    lowering = {}
+    for name, held in (("free", None), ("held", outlet_mask(grid))):
+        params = coupled.CoupledParams(flow=blatter.FlowParams(sliding_c=1e5), iceflow="sia", k_e=1e-5,
+                                       k_q=1e-3, held_bed=held)
+        result = coupled.run(coupled.GlacierState(bed, np.zeros_like(bed)), grid, params, 2700.0,
+                             coupled.step_times(2000.0, 20.0))
+        assert result.state.thickness[9:11, -1].min() > 150.0  # the tongue leaves through the edge
+        lowering[name] = bed - result.state.bed
+    edge = outlet_mask(grid)
+    assert lowering["free"][edge].max() == pytest.approx(7.7, abs=0.8)
+    assert lowering["held"][edge].max() == 0.0
+    inside = np.s_[9:11, 5:-2]
+    assert lowering["held"][inside].mean() == pytest.approx(lowering["free"][inside].mean(), rel=0.01)
+    with pytest.raises(ValueError, match="held-bed mask"):
+        coupled.CoupledParams(held_bed=np.zeros((3, 3), bool)).validate(grid.shape)
+
 # --- equilibrium line -----------------------------------------------------------------------------
 
 def test_ela_table_interpolates_and_holds_its_ends():

@@ -141,6 +141,7 @@ class CoupledParams:
     flow_max_iter: int = FLOW_MAX_ITER
     flow_energy_rtol: float = FLOW_ENERGY_RTOL
     multiscale_cfl: float = MULTISCALE_CFL
+    held_bed: np.ndarray | None = None
 
     def validate(self, shape: tuple[int, int]) -> None:
         """Raise ValueError (one sentence) for an unknown choice or a value out of range."""
@@ -157,6 +158,9 @@ class CoupledParams:
                 and 0.0 <= self.flow_energy_rtol < 0.01):
             raise ValueError("flow_rtol must be in (0, 1), flow_max_iter ≥ 0 and flow_energy_rtol "
                              "in [0, 0.01)")
+        if self.held_bed is not None and np.shape(self.held_bed) != tuple(shape):
+            raise ValueError(f"the held-bed mask must have the grid's shape {tuple(shape)}, "
+                             f"got {np.shape(self.held_bed)}")
         if not 0.0 < self.multiscale_cfl <= 1.0:
             raise ValueError(f"the multi-scale CFL number must be in (0, 1], got {self.multiscale_cfl:g}")
         if self.snow_slope_min > self.snow_slope_max:
@@ -371,10 +375,22 @@ def _multiscale_cfl(flow: FlowField, grid: Grid, c: float) -> float:
 
 
 def _erosion_rate(bed: np.ndarray, flow: FlowField, grid: Grid, params: CoupledParams) -> np.ndarray:
-    """Abrasion + quarrying (m/y, ≤ 0) under the sliding ice (001 §6.1), 0 outside the domain."""
+    """Abrasion + quarrying (m/y, ≤ 0) under the sliding ice (001 §6.1), 0 outside the domain and
+    on ``params.held_bed``.
+
+    Why the map's outlets are held: they are the base level of every other process (rivers,
+    hill slopes and debris flow keep the edges and the borders of nodata where they are), and an
+    open edge lets the ice out freely, so where an outlet glacier leaves the map nothing limits
+    the erosion of the edge cell: a deeper edge draws the ice surface down to it, the ice speeds
+    up and erodes faster. In 001 Fig. 6 at 256² (250 m cells) the north outlet cut its edge cell
+    from 212–1062 m to −1617 m in the last 28 ky of the cooling (0.4–0.5 m/y at the end, sliding
+    at 3–5.5 km/y), and the warming diverged there after 3.2 ky on the cliffs this left. Held,
+    the edge is a sill: the bed behind it may deepen (an over-deepening), but the ice must then
+    climb out over the sill, and a deeper basin slows it down instead of speeding it up."""
     abrasion, quarrying = erosion.erosion_rates(bed, *flow.basal, grid, params.k_e, params.abrasion_exponent,
                                                 params.k_q, params.boundary)
-    return np.where(grid.valid, abrasion + quarrying, 0.0)
+    eroding = grid.valid if params.held_bed is None else grid.valid & ~params.held_bed
+    return np.where(eroding, abrasion + quarrying, 0.0)
 
 
 def step(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, dt: float) -> tuple[

@@ -198,7 +198,8 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
         params = coupled.CoupledParams(
             flow=blatter.FlowParams(**flow_params), iceflow=job.iceflow, transport=job.transport,
             multiscale_cfl=job.transport_cfl, allow_substeps=job.allow_substeps, boundary=job.boundary,
-            background_slope=math.radians(job.background_slope), erosion=job.erosion, **values)
+            background_slope=math.radians(job.background_slope), erosion=job.erosion,
+            held_bed=outlet_mask(terrain.grid, "all" if job.boundary == "open" else "none"), **values)
         params.validate(terrain.shape)
         surface = cycle.surface_params(surface_values, job.hillslope, job.debris, job.fluvial,
                                        job.shield_thickness, job.drainage_every)
