@@ -70,6 +70,10 @@ def test_preview_png(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert png.stat().st_size > 20_000
+    named = tmp_path / "named.png"
+    result = run_cli("preview", SAMPLE_DEMS / "coast_wgs84_30m.tif", named, "--label", "ice thickness (m)")
+    assert result.returncode == 0, result.stderr
+    assert named.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and named.read_bytes() != png.read_bytes()
 
 
 def test_synth_is_reproducible(tmp_path: Path) -> None:

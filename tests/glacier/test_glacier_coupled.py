@@ -68,8 +68,12 @@ def test_the_wall_time_of_a_run_is_shared_among_its_parts():
 
     bed, grid = _valley()
 
+    slept = []
+
     def slow_ice_free(state, dt):
+        begin = time.perf_counter()
         time.sleep(0.02)
+        slept.append(time.perf_counter() - begin)  # a loaded machine oversleeps
         return state
 
     start = time.perf_counter()
@@ -79,7 +83,8 @@ def test_the_wall_time_of_a_run_is_shared_among_its_parts():
     assert set(result.seconds) == set(coupled.WALL_TIME_PARTS)
     assert min(result.seconds.values()) >= 0.0
     assert sum(result.seconds.values()) == pytest.approx(wall, rel=0.02, abs=2e-3)
-    assert result.seconds["ice_free"] == pytest.approx(0.02 * result.steps, rel=0.5)
+    assert len(slept) == result.steps
+    assert sum(slept) <= result.seconds["ice_free"] <= 1.1 * sum(slept) + 5e-3
     assert result.seconds["ice_flow"] > 0.0 and result.seconds["transport_erosion"] > 0.0
 
 

@@ -435,7 +435,8 @@ def hanging_steps(
         k = position[junction]
         chainage = float(trunk.chainage[k])
         near = np.abs(trunk.chainage - chainage) <= window
-        gradient = float(np.polyfit(trunk.chainage[near], z[trunk_cells[near]], 1)[0])
+        near[max(k - 1, 0): k + 2] = True  # the junction's neighbours on the trunk at least
+        gradient = float(np.polyfit(trunk.chainage[near] - chainage, z[trunk_cells[near]], 1)[0])
         drop = float(z[reach[last]] - z[junction])
         ell = float(length[last])
         junctions.append(Junction(int(r[0]), int(c[0]), chainage, float(area[donor]), r[: last + 1],

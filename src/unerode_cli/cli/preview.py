@@ -18,13 +18,14 @@ def preview(
     title: Annotated[str | None, typer.Option(help="Title (default: the DEM's file name).")] = None,
     cmap: Annotated[str, typer.Option(help="Colour map: sea-land (blues below 0 m) or any matplotlib one.")] = "sea-land",
     exaggeration: Annotated[float, typer.Option(parser=Number(minimum=0.0, above=True), help="Vertical exaggeration of the hillshade (> 0).")] = 1.0,
+    label: Annotated[str, typer.Option(help="Name of the colour bar, e.g. 'ice thickness (m)'.")] = "elevation (m)",
     band: Band = None,
     channel: Channel = None,
     overwrite: Overwrite = False,
     verbose: Verbose = 0,
     quiet: Quiet = 0,
 ) -> None:
-    """Write a PNG: hillshade on an elevation colour ramp, colour bar in metres."""
+    """Write a PNG: hillshade on a colour ramp of the values, colour bar in metres (``--label``)."""
     with reported_errors(verbose - quiet):
         from matplotlib import colormaps
 
@@ -42,4 +43,4 @@ def preview(
         terrain = load(dem, band, channel)
         check_previewable(terrain, dem)
         write_preview(terrain, png, title=title if title is not None else dem.name,
-                       cmap=cmap, vertical_exaggeration=exaggeration)
+                       cmap=cmap, vertical_exaggeration=exaggeration, label=label)

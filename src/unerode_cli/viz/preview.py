@@ -25,9 +25,11 @@ def save_preview(
     cmap: str = "sea-land",
     vertical_exaggeration: float = 1.0,
     dpi: int = 110,
+    label: str = "elevation (m)",
 ) -> None:
     """Save a PNG: hillshade (sun from the north-west, 45°) soft-blended with ``cmap``,
-    nodata (NaN) transparent, and a colour bar in metres.
+    nodata (NaN) transparent, and a colour bar named ``label`` (a raster in metres that is not an
+    elevation, e.g. an ice thickness, says so there).
 
     The default ``"sea-land"`` colour map shows elevations below 0 m in blues and land in the
     greens-to-white of matplotlib's "terrain", so that low land never looks like sea; any
@@ -58,7 +60,7 @@ def save_preview(
     if title:
         ax.set_title(title, fontsize=10)
     bar = fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=colour_map), ax=ax, shrink=0.85)
-    bar.set_label("elevation (m)")
+    bar.set_label(label)
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
