@@ -10,7 +10,8 @@ One step of length dt (y) from the state (bed b, ice thickness H, time t):
    the default) or explicit steps (``transport``) cut into sub-steps that respect their
    stability limit (``UnstableStep`` where sub-steps are refused);
 4. glacial erosion of the bed by the sliding ice (``erosion``, 001 §6.1): b ← b + dt·(abrasion +
-   quarrying), from the basal velocity of step 2.
+   quarrying), from the basal velocity of step 2, except on ``CoupledParams.held_bed`` (the map's
+   base level, ``_erosion_rate``).
 
 Velocity re-solve policy (Blatter–Pattyn). Each step warm-starts the minimiser from the lattice
 velocities of the previous step and calls ``blatter.solve`` with ``flow_rtol`` (default
