@@ -10,6 +10,7 @@ import pytest
 
 from unerode_cli.glacier import blatter, coupled, sia, transport
 from unerode_cli.grid import Grid
+from unerode_cli.hydro import outlet_mask
 
 
 def _valley(ny: int = 20, nx: int = 30, dx: float = 200.0) -> tuple[np.ndarray, Grid]:
@@ -110,8 +111,6 @@ def test_the_held_bed_is_not_eroded_and_the_rest_erodes_as_before():
     """The map's outlets are glacial erosion's base level too (``coupled._erosion_rate``): the
     tongue that leaves the valley through its east edge lowers the edge by 7.7 m in 2000 y when
     free; held, the edge stays and the trunk inside erodes as it did (measured: within 1 %)."""
-    from unerode_cli.hydro import outlet_mask
-
     bed, grid = _valley()
     lowering = {}
     for name, held in (("free", None), ("held", outlet_mask(grid))):
