@@ -35,6 +35,19 @@ def test_threaded_energy_gradient_is_bit_identical(periodic, shape):
     assert np.array_equal(serial[1], threads[1]) and np.array_equal(serial[2], threads[2])
 
 
+@pytest.mark.parametrize("periodic", [False, True])
+def test_driving_force_is_the_gradient_at_rest(periodic):
+    """driving_force is ∇E(0): the gravitational term alone, without the energy's powers."""
+    bed, h, grid = _ice_cap(40)
+    level = blatter._level(bed, h, np.full(bed.shape, 2e4), np.ones(bed.shape, dtype=bool), 400.0, 400.0,
+                           blatter.FlowParams(), periodic, 0.05)
+    dof, zeta, _, dx, dy, tilt, _, _, _, rho_g = level.args[:10]
+    drive = blatter_kernels.driving_force(dof, zeta, dx, dy, tilt, rho_g, periodic, level.n)
+    at_rest = blatter_kernels.objective(np.zeros(2 * level.n), *level.args)[1]
+    assert np.linalg.norm(at_rest) > 0
+    np.testing.assert_allclose(drive, at_rest, rtol=1e-12, atol=1e-12 * np.abs(at_rest).max())
+
+
 def test_transfer_operators_are_adjoint():
     """restrict_gradient is Pᵀ of prolong: (P y)·g = y·(Pᵀ g), open and periodic, odd sizes."""
     rng = np.random.default_rng(5)

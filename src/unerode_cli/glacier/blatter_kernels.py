@@ -308,6 +308,43 @@ def objective(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2,
 
 
 @numba.njit(cache=True)
+def driving_force(dof, zeta, dx, dy, tilt, rho_g, periodic, n):
+    """∇E(0) with respect to the unknowns (float64[2n]): the gravitational driving term
+    ρg·V·∇s/8 of every cell at its eight corners, the only part of the gradient that is not
+    zero at u = 0 (the viscous and sliding terms vanish there). The same numbers as
+    ``objective(0, …)[1]`` without its powers."""
+    nz, ny, nx = zeta.shape
+    ncx = nx if periodic else nx - 1
+    ncy = ny if periodic else ny - 1
+    gu = np.zeros(zeta.shape)
+    gv = np.zeros(zeta.shape)
+    top = nz - 1
+    for k in range(nz - 1):
+        for j in range(ncy):
+            j1 = j + 1 if j + 1 < ny else 0
+            for i in range(ncx):
+                i1 = i + 1 if i + 1 < nx else 0
+                ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
+                if ct <= 0.0:
+                    continue
+                s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
+                sx = 0.5 * ((s01 - s00) + (s11 - s10)) / dx - tilt
+                sy = 0.5 * ((s10 - s00) + (s11 - s01)) / dy
+                vol = dx * dy * ct
+                c0u, c0v = vol * rho_g * sx / 8, vol * rho_g * sy / 8
+                for kk in range(k, k + 2):
+                    gu[kk, j, i] += c0u
+                    gu[kk, j, i1] += c0u
+                    gu[kk, j1, i] += c0u
+                    gu[kk, j1, i1] += c0u
+                    gv[kk, j, i] += c0v
+                    gv[kk, j, i1] += c0v
+                    gv[kk, j1, i] += c0v
+                    gv[kk, j1, i1] += c0v
+    return restrict(gu, gv, dof, n)
+
+
+@numba.njit(cache=True)
 def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, ureg2, periodic):
     """The Picard (frozen-viscosity) Hessian of E restricted to each lattice column: the
     preconditioner of the minimisation (a vertical-line relaxation; thin lattice cells couple
@@ -437,20 +474,19 @@ def column_factor(diag, upper, chains):
     inv = np.empty(2 * n)
     ratio = np.empty(2 * n)
     for q in range(nz):
-        for task in range(2 * ncol):
-            half = task // ncol
-            col = task - half * ncol
-            d = chains[q, col]
-            if d < 0:
-                continue
+        for half in range(2):
             off = half * n
-            pivot = diag[off + d]
-            if q > 0:
-                below = chains[q - 1, col]
-                pivot -= upper[off + below] * ratio[off + below]
-            pivot = max(pivot, PIVOT_FLOOR * diag[off + d])
-            inv[off + d] = 1.0 / pivot
-            ratio[off + d] = upper[off + d] / pivot
+            for col in range(ncol):
+                d = chains[q, col]
+                if d < 0:
+                    continue
+                pivot = diag[off + d]
+                if q > 0:
+                    below = chains[q - 1, col]
+                    pivot -= upper[off + below] * ratio[off + below]
+                pivot = max(pivot, PIVOT_FLOOR * diag[off + d])
+                inv[off + d] = 1.0 / pivot
+                ratio[off + d] = upper[off + d] / pivot
     return inv, ratio
 
 
@@ -461,27 +497,25 @@ def column_solve_factored(inv, ratio, upper, chains, r, out):
     n = inv.size // 2
     nz, ncol = chains.shape
     for q in range(nz):
-        for task in range(2 * ncol):
-            half = task // ncol
-            col = task - half * ncol
-            d = chains[q, col]
-            if d < 0:
-                continue
+        for half in range(2):
             off = half * n
-            rhs = r[off + d]
-            if q > 0:
-                below = chains[q - 1, col]
-                rhs -= upper[off + below] * out[off + below]
-            out[off + d] = rhs * inv[off + d]
+            for col in range(ncol):
+                d = chains[q, col]
+                if d < 0:
+                    continue
+                rhs = r[off + d]
+                if q > 0:
+                    below = chains[q - 1, col]
+                    rhs -= upper[off + below] * out[off + below]
+                out[off + d] = rhs * inv[off + d]
     for q in range(nz - 2, -1, -1):
-        for task in range(2 * ncol):
-            half = task // ncol
-            col = task - half * ncol
-            d = chains[q, col]
-            above = chains[q + 1, col]
-            if d >= 0 and above >= 0:
-                off = half * n
-                out[off + d] -= ratio[off + d] * out[off + above]
+        for half in range(2):
+            off = half * n
+            for col in range(ncol):
+                d = chains[q, col]
+                above = chains[q + 1, col]
+                if d >= 0 and above >= 0:
+                    out[off + d] -= ratio[off + d] * out[off + above]
     return out
 
 
@@ -495,19 +529,60 @@ def column_solve(diag, upper, chains, r, out, work):
 
 
 @numba.njit(cache=True)
-def _dot(a, b):
-    """aᵀb."""
-    total = 0.0
-    for i in range(a.size):
-        total += a[i] * b[i]
-    return total
+def dot(a, b):
+    """aᵀb, summed in four interleaved partial sums (a fixed order, so the same bits on every
+    machine; the sums are independent, so the loop runs at the memory's speed, not the adder's)."""
+    s0 = s1 = s2 = s3 = 0.0
+    end = a.size - a.size % 4
+    for i in range(0, end, 4):
+        s0 += a[i] * b[i]
+        s1 += a[i + 1] * b[i + 1]
+        s2 += a[i + 2] * b[i + 2]
+        s3 += a[i + 3] * b[i + 3]
+    for i in range(end, a.size):
+        s0 += a[i] * b[i]
+    return (s0 + s1) + (s2 + s3)
 
 
 @numba.njit(cache=True)
-def _add_scaled(y, alpha, x):
-    """y += α·x in place."""
-    for i in range(y.size):
+def new_pair(x_new, x, g_new, g, s, y):
+    """The L-BFGS pair of a step: s = x_new − x and y = g_new − g written in place, and sᵀy
+    (``dot``'s order), in one pass."""
+    s0 = s1 = s2 = s3 = 0.0
+    end = x.size - x.size % 4
+    for i in range(0, end, 4):
+        for lane in range(4):
+            s[i + lane] = x_new[i + lane] - x[i + lane]
+            y[i + lane] = g_new[i + lane] - g[i + lane]
+        s0 += s[i] * y[i]
+        s1 += s[i + 1] * y[i + 1]
+        s2 += s[i + 2] * y[i + 2]
+        s3 += s[i + 3] * y[i + 3]
+    for i in range(end, x.size):
+        s[i] = x_new[i] - x[i]
+        y[i] = g_new[i] - g[i]
+        s0 += s[i] * y[i]
+    return (s0 + s1) + (s2 + s3)
+
+
+@numba.njit(cache=True)
+def _add_scaled_dot(y, alpha, x, w):
+    """y += α·x in place, and wᵀy of the updated y (``dot``'s order) in the same pass."""
+    s0 = s1 = s2 = s3 = 0.0
+    end = y.size - y.size % 4
+    for i in range(0, end, 4):
         y[i] += alpha * x[i]
+        y[i + 1] += alpha * x[i + 1]
+        y[i + 2] += alpha * x[i + 2]
+        y[i + 3] += alpha * x[i + 3]
+        s0 += w[i] * y[i]
+        s1 += w[i + 1] * y[i + 1]
+        s2 += w[i + 2] * y[i + 2]
+        s3 += w[i + 3] * y[i + 3]
+    for i in range(end, y.size):
+        y[i] += alpha * x[i]
+        s0 += w[i] * y[i]
+    return (s0 + s1) + (s2 + s3)
 
 
 @numba.njit(cache=True)
@@ -525,20 +600,28 @@ def lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper, ch
     m = s_hist.shape[0]
     q = g.copy()
     alphas = np.zeros(m)
+    curvature = 0.0
+    # each pass updates q and takes the next pair's dot product with it (Algorithm 7.4's loops,
+    # the dot of one iteration fused with the update of the one before)
+    product = dot(s_hist[newest], q) if count > 0 else 0.0
     for back in range(count):
         row = (newest - back) % m
-        alphas[row] = rho[row] * _dot(s_hist[row], q)
-        _add_scaled(q, -alphas[row], y_hist[row])
-    column_solve_factored(inv, ratio, upper, chains, q, out)
-    q[:] = out
+        alphas[row] = rho[row] * product
+        following = s_hist[(row - 1) % m] if back + 1 < count else q
+        product = _add_scaled_dot(q, -alphas[row], y_hist[row], following)
     if count > 0:
         column_solve_factored(inv, ratio, upper, chains, y_hist[newest], out)
-        curvature = rho[newest] * _dot(y_hist[newest], out)
-        if curvature > 0.0:
-            q *= 1.0 / curvature
+        curvature = rho[newest] * dot(y_hist[newest], out)
+    column_solve_factored(inv, ratio, upper, chains, q, out)
+    scale = 1.0 / curvature if count > 0 and curvature > 0.0 else 1.0
+    first = (newest - count + 1) % m
+    for i in range(q.size):
+        q[i] = scale * out[i]
+    product = dot(y_hist[first], q) if count > 0 else 0.0
     for forward in range(count):
         row = (newest - count + 1 + forward) % m
-        _add_scaled(q, alphas[row] - rho[row] * _dot(y_hist[row], q), s_hist[row])
+        following = y_hist[(row + 1) % m] if forward + 1 < count else q
+        product = _add_scaled_dot(q, alphas[row] - rho[row] * product, s_hist[row], following)
     for i in range(q.size):
         q[i] = -q[i]
     return q
