@@ -62,12 +62,11 @@ def test_transfer_operators_are_adjoint():
         coarse = levels[1]
         y = rng.standard_normal(2 * coarse.n)
         g = rng.standard_normal(2 * fine.n)
-        py = blatter_kernels.prolong(y, coarse.dof, fine.dof, fine.n, fine.fy, fine.fx, periodic)
-        ptg = blatter_kernels.restrict_gradient(g, fine.dof, coarse.dof, coarse.n, fine.fy, fine.fx, periodic)
+        py = blatter_kernels.prolong(y, fine.transfer, fine.n)
+        ptg = blatter_kernels.restrict_gradient(g, fine.transfer, coarse.n)
         assert py @ g == pytest.approx(y @ ptg, rel=1e-12)
         # a uniform coarse field prolongs to a uniform field wherever the fine nodes see coarse ones
-        ones = blatter_kernels.prolong(np.ones(2 * coarse.n), coarse.dof, fine.dof, fine.n, fine.fy,
-                                       fine.fx, periodic)
+        ones = blatter_kernels.prolong(np.ones(2 * coarse.n), fine.transfer, fine.n)
         assert np.all((ones <= 1.0 + 1e-12) & (ones >= 0.0)) and np.median(ones) == 1.0
 
 

@@ -370,6 +370,7 @@ class _Level:
     chains: np.ndarray
     fy: int = 1
     fx: int = 1
+    transfer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # P to the next coarser level
     history: _History | None = None
     preconditioner: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
@@ -396,6 +397,8 @@ def _hierarchy(b: np.ndarray, h: np.ndarray, c_node: np.ndarray, valid: np.ndarr
                dy: float, params: FlowParams, periodic: bool, tilt: float, fine: _Level) -> list[_Level]:
     """[fine, coarser, …]: each level keeps every other row and/or column of nodes of the one
     before (bed, thickness, C and domain sampled there, cells twice as long)."""
+    from unerode_cli.glacier import blatter_kernels as bk
+
     levels = [fine]
     while True:
         fy, fx = _coarsening(b.shape[0], periodic), _coarsening(b.shape[1], periodic)
@@ -407,6 +410,7 @@ def _hierarchy(b: np.ndarray, h: np.ndarray, c_node: np.ndarray, valid: np.ndarr
         if coarse.n == 0:
             return levels
         levels[-1].fy, levels[-1].fx = fy, fx
+        levels[-1].transfer = bk.transfer_entries(levels[-1].dof, coarse.dof, fy, fx, periodic)
         levels.append(coarse)
 
 
@@ -480,9 +484,9 @@ class _Multigrid:
             y0 = bk.inject(x, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx)
             self.evaluations += 1
             shift_c = bk.objective(y0, *coarse.args)[1]
-            shift_c -= bk.restrict_gradient(g, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx, periodic)
+            shift_c -= bk.restrict_gradient(g, lev.transfer, coarse.n)
             y, _ = self.cycle(y0, None, index + 1, shift_c)
-            e = bk.prolong(y - y0, coarse.dof, lev.dof, lev.n, lev.fy, lev.fx, periodic)
+            e = bk.prolong(y - y0, lev.transfer, lev.n)
             slope0 = _dot(g, e)
             if slope0 < 0:
                 step, g_new = _line_search(obj, x, e, slope0, 1.0)

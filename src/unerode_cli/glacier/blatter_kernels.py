@@ -98,26 +98,28 @@ def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps
     half_p = 0.5 * p
     top = nz - 1
     j1 = j + 1 if j + 1 < ny else 0
+    rdx, rdy = 1.0 / dx, 1.0 / dy
     for i in range(ncx):
         i1 = i + 1 if i + 1 < nx else 0
         ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
         if ct <= 0.0:
             continue
+        rct = 1.0 / ct
         s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
-        sx = 0.5 * ((s01 - s00) + (s11 - s10)) / dx - tilt
-        sy = 0.5 * ((s10 - s00) + (s11 - s01)) / dy
+        sx = 0.5 * ((s01 - s00) + (s11 - s10)) * rdx - tilt
+        sy = 0.5 * ((s10 - s00) + (s11 - s01)) * rdy
 
         ub00, ub01, ub10, ub11 = u[k, j, i], u[k, j, i1], u[k, j1, i], u[k, j1, i1]
         ut00, ut01, ut10, ut11 = u[k + 1, j, i], u[k + 1, j, i1], u[k + 1, j1, i], u[k + 1, j1, i1]
         vb00, vb01, vb10, vb11 = v[k, j, i], v[k, j, i1], v[k, j1, i], v[k, j1, i1]
         vt00, vt01, vt10, vt11 = v[k + 1, j, i], v[k + 1, j, i1], v[k + 1, j1, i], v[k + 1, j1, i1]
 
-        uz = 0.25 * ((ut00 + ut01 + ut10 + ut11) - (ub00 + ub01 + ub10 + ub11)) / ct
-        vz = 0.25 * ((vt00 + vt01 + vt10 + vt11) - (vb00 + vb01 + vb10 + vb11)) / ct
-        ux = 0.25 * ((ub01 - ub00) + (ub11 - ub10) + (ut01 - ut00) + (ut11 - ut10)) / dx - ax * uz
-        vx = 0.25 * ((vb01 - vb00) + (vb11 - vb10) + (vt01 - vt00) + (vt11 - vt10)) / dx - ax * vz
-        uy = 0.25 * ((ub10 - ub00) + (ub11 - ub01) + (ut10 - ut00) + (ut11 - ut01)) / dy - ay * uz
-        vy = 0.25 * ((vb10 - vb00) + (vb11 - vb01) + (vt10 - vt00) + (vt11 - vt01)) / dy - ay * vz
+        uz = 0.25 * ((ut00 + ut01 + ut10 + ut11) - (ub00 + ub01 + ub10 + ub11)) * rct
+        vz = 0.25 * ((vt00 + vt01 + vt10 + vt11) - (vb00 + vb01 + vb10 + vb11)) * rct
+        ux = 0.25 * ((ub01 - ub00) + (ub11 - ub10) + (ut01 - ut00) + (ut11 - ut10)) * rdx - ax * uz
+        vx = 0.25 * ((vb01 - vb00) + (vb11 - vb10) + (vt01 - vt00) + (vt11 - vt10)) * rdx - ax * vz
+        uy = 0.25 * ((ub10 - ub00) + (ub11 - ub01) + (ut10 - ut00) + (ut11 - ut01)) * rdy - ay * uz
+        vy = 0.25 * ((vb10 - vb00) + (vb11 - vb01) + (vt10 - vt00) + (vt11 - vt01)) * rdy - ay * vz
         uc = 0.125 * (ub00 + ub01 + ub10 + ub11 + ut00 + ut01 + ut10 + ut11)
         vc = 0.125 * (vb00 + vb01 + vb10 + vb11 + vt00 + vt01 + vt10 + vt11)
 
@@ -135,8 +137,8 @@ def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps
         g_uz = w * uz - ax * g_ux - ay * g_uy
         g_vz = w * vz - ax * g_vx - ay * g_vy
         # per-corner weights: ±1/(4dx) along x, ±1/(4dy) along y, ±1/(4c_t) along z, 1/8 mean
-        cxu, cyu, czu, c0u = g_ux / (4 * dx), g_uy / (4 * dy), g_uz / (4 * ct), vol * rho_g * sx / 8
-        cxv, cyv, czv, c0v = g_vx / (4 * dx), g_vy / (4 * dy), g_vz / (4 * ct), vol * rho_g * sy / 8
+        cxu, cyu, czu, c0u = 0.25 * g_ux * rdx, 0.25 * g_uy * rdy, 0.25 * g_uz * rct, 0.125 * vol * rho_g * sx
+        cxv, cyv, czv, c0v = 0.25 * g_vx * rdx, 0.25 * g_vy * rdy, 0.25 * g_vz * rct, 0.125 * vol * rho_g * sy
         for c in range(2):
             kk = k + c
             sz = 2 * c - 1
@@ -687,9 +689,10 @@ def transfer_entries(dof_f, dof_c, fy, fx, periodic):
 
 
 @numba.njit(cache=True)
-def prolong(y, dof_c, dof_f, n_f, fy, fx, periodic):
-    """Fine unknowns (float64[2 n_f]) interpolated from the coarse unknowns y (``dof_c``)."""
-    fine, coarse, weight = transfer_entries(dof_f, dof_c, fy, fx, periodic)
+def prolong(y, entries, n_f):
+    """Fine unknowns (float64[2 n_f]) interpolated from the coarse unknowns y by P, given as
+    ``transfer_entries``."""
+    fine, coarse, weight = entries
     n_c = y.size // 2
     x = np.zeros(2 * n_f)
     for e in range(fine.size):
@@ -699,9 +702,10 @@ def prolong(y, dof_c, dof_f, n_f, fy, fx, periodic):
 
 
 @numba.njit(cache=True)
-def restrict_gradient(g, dof_f, dof_c, n_c, fy, fx, periodic):
-    """Pᵀ·g: the gradient with respect to the coarse unknowns of E(P·y), float64[2 n_c]."""
-    fine, coarse, weight = transfer_entries(dof_f, dof_c, fy, fx, periodic)
+def restrict_gradient(g, entries, n_c):
+    """Pᵀ·g (P as ``transfer_entries``): the gradient with respect to the coarse unknowns of
+    E(P·y), float64[2 n_c]."""
+    fine, coarse, weight = entries
     n_f = g.size // 2
     out = np.zeros(2 * n_c)
     for e in range(fine.size):
