@@ -35,6 +35,36 @@ def test_threaded_energy_gradient_is_bit_identical(periodic, shape):
     assert np.array_equal(serial[1], threads[1]) and np.array_equal(serial[2], threads[2])
 
 
+def test_threaded_lbfgs_passes_are_bit_identical():
+    """The L-BFGS passes and the column solve give the same bits on one thread as on threads
+    (their threaded versions, called here on a vector below PARALLEL_MIN_UNKNOWNS)."""
+    bed, h, _ = _ice_cap(80, 200.0)
+    level = blatter._level(bed, h, np.full(bed.shape, 2e4), np.ones(bed.shape, dtype=bool), 200.0, 200.0,
+                           blatter.FlowParams(), False, 0.0)
+    size = 2 * level.n
+    assert size > 2 * blatter_kernels.BLOCK  # several blocks
+    rng = np.random.default_rng(11)
+    a, b, c, d = (rng.standard_normal(size) for _ in range(4))
+    assert blatter_kernels.dot(a, b) == blatter_kernels._dot_threads(a, b)
+    assert blatter_kernels.dot(a, b) == pytest.approx(float(a @ b), rel=1e-12)
+    y1, y2 = a.copy(), a.copy()
+    assert blatter_kernels._add_scaled_dot(y1, 0.3, b, c) == blatter_kernels._add_scaled_dot_threads(y2, 0.3, b, c)
+    assert np.array_equal(y1, y2) and np.allclose(y1, a + 0.3 * b)
+    s1, t1, s2, t2 = (np.empty(size) for _ in range(4))
+    assert (blatter_kernels.new_pair(a, b, c, d, s1, t1)
+            == blatter_kernels._new_pair_threads(a, b, c, d, s2, t2))
+    assert np.array_equal(s1, a - b) and np.array_equal(t1, c - d) and np.array_equal(s2, s1)
+    x = rng.standard_normal(size)
+    dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma = level.args[:9]
+    diag, upper = blatter_kernels.picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
+                                                 1e-12, 1e-6, False)
+    inv, ratio = blatter_kernels.column_factor(diag, upper, level.chains)
+    serial = blatter_kernels.column_solve_factored(inv, ratio, upper, level.chains, a, np.empty(size))
+    threads = np.empty(size)
+    blatter_kernels._column_solve_threads(inv, ratio, upper, level.chains, a, threads)
+    assert np.array_equal(serial, threads)
+
+
 @pytest.mark.parametrize("periodic", [False, True])
 def test_driving_force_is_the_gradient_at_rest(periodic):
     """driving_force is ∇E(0): the gravitational term alone, without the energy's powers."""

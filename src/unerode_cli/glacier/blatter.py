@@ -341,12 +341,12 @@ def _lbfgs(obj: _Objective, x: np.ndarray, direction_of, drive: float, rtol: flo
 #: 2·MG_MIN_NODES nodes (and, if periodic, an even count); no coarse level below that.
 MG_MIN_NODES = 16
 #: L-BFGS iterations per multigrid cycle: before and after the coarse correction on every level but
-#: the coarsest, and on the coarsest. One before and one after beat two and two: over 12 steps of
-#: the melting 256² bench ice cap, 14 fine-level evaluations a step instead of 18 (solves 23 %
-#: faster), with the energy at most 0.13 % above a converged solve's (0.06 % with two and two);
-#: 1000 y of Grindelwald (ELA 2900 m, dt 20 y) took 88 s instead of 105 s on one thread, with the
-#: same ice (5.64 km³) and no unconverged solve. Three and three: 22 evaluations.
-MG_PRE, MG_POST, MG_COARSE = 1, 1, 10
+#: the coarsest, and on the coarsest. One before and one after took 14 fine-level evaluations a
+#: step of the melting 256² bench ice cap instead of 18 (energy within 0.13 % of a converged
+#: solve's) and 1000 y of Grindelwald 16 % less time, but the Fig. 14 runs
+#: (``test_fig14_coupling``, 40 × 60) then kept 38 m of ice where they melt out: the energy rule's
+#: contraction factors (below) are measured with two and two.
+MG_PRE, MG_POST, MG_COARSE = 2, 2, 10
 #: Contraction factor of E − E_min per cycle assumed after the first cycle of a solve (measured:
 #: 0.2–0.5 on the thick bench ice cap, 0.9 on the thin ice it leaves when it melts back).
 MG_CONTRACTION = 0.9

@@ -492,32 +492,65 @@ def column_factor(diag, upper, chains):
     return inv, ratio
 
 
-@numba.njit(cache=True)
-def column_solve_factored(inv, ratio, upper, chains, r, out):
-    """out = T⁻¹·r from ``column_factor``'s (inv, ratio): forward elimination, back substitution
-    (level by level over all columns at once: serial, a few ms)."""
+#: Vectors of at least this many unknowns have L-BFGS's passes (``dot``, ``_add_scaled_dot``,
+#: ``new_pair``) and the column solves run on threads.
+PARALLEL_MIN_UNKNOWNS = 200_000
+#: Entries per block of those passes: each block's partial sum is taken alone and the blocks are
+#: added in their order, on one thread or many, so the bits do not depend on the thread count.
+BLOCK = 16_384
+
+
+@numba.njit(cache=True, inline="always")
+def _forward(inv, upper, chains, r, out, q, off, col):
+    d = chains[q, col]
+    if d >= 0:
+        rhs = r[off + d]
+        if q > 0:
+            below = chains[q - 1, col]
+            rhs -= upper[off + below] * out[off + below]
+        out[off + d] = rhs * inv[off + d]
+
+
+@numba.njit(cache=True, inline="always")
+def _backward(ratio, chains, out, q, off, col):
+    d = chains[q, col]
+    above = chains[q + 1, col]
+    if d >= 0 and above >= 0:
+        out[off + d] -= ratio[off + d] * out[off + above]
+
+
+@numba.njit(cache=True, parallel=True)
+def _column_solve_threads(inv, ratio, upper, chains, r, out):
     n = inv.size // 2
     nz, ncol = chains.shape
     for q in range(nz):
-        for half in range(2):
-            off = half * n
-            for col in range(ncol):
-                d = chains[q, col]
-                if d < 0:
-                    continue
-                rhs = r[off + d]
-                if q > 0:
-                    below = chains[q - 1, col]
-                    rhs -= upper[off + below] * out[off + below]
-                out[off + d] = rhs * inv[off + d]
+        for col in numba.prange(ncol):
+            _forward(inv, upper, chains, r, out, q, 0, col)
+            _forward(inv, upper, chains, r, out, q, n, col)
     for q in range(nz - 2, -1, -1):
-        for half in range(2):
-            off = half * n
-            for col in range(ncol):
-                d = chains[q, col]
-                above = chains[q + 1, col]
-                if d >= 0 and above >= 0:
-                    out[off + d] -= ratio[off + d] * out[off + above]
+        for col in numba.prange(ncol):
+            _backward(ratio, chains, out, q, 0, col)
+            _backward(ratio, chains, out, q, n, col)
+
+
+@numba.njit(cache=True)
+def column_solve_factored(inv, ratio, upper, chains, r, out):
+    """out = T⁻¹·r from ``column_factor``'s (inv, ratio): forward elimination, back substitution,
+    level by level over all columns at once (the columns of a level on threads from
+    PARALLEL_MIN_UNKNOWNS unknowns: they are independent, so the result is the same)."""
+    if inv.size >= PARALLEL_MIN_UNKNOWNS:
+        _column_solve_threads(inv, ratio, upper, chains, r, out)
+        return out
+    n = inv.size // 2
+    nz, ncol = chains.shape
+    for q in range(nz):
+        for col in range(ncol):
+            _forward(inv, upper, chains, r, out, q, 0, col)
+            _forward(inv, upper, chains, r, out, q, n, col)
+    for q in range(nz - 2, -1, -1):
+        for col in range(ncol):
+            _backward(ratio, chains, out, q, 0, col)
+            _backward(ratio, chains, out, q, n, col)
     return out
 
 
@@ -530,49 +563,28 @@ def column_solve(diag, upper, chains, r, out, work):
     return column_solve_factored(inv, ratio, upper, chains, r, out)
 
 
-@numba.njit(cache=True)
-def dot(a, b):
-    """aᵀb, summed in four interleaved partial sums (a fixed order, so the same bits on every
-    machine; the sums are independent, so the loop runs at the memory's speed, not the adder's)."""
+@numba.njit(cache=True, inline="always")
+def _block_dot(a, b, lo, hi):
+    """aᵀb over [lo, hi) in four interleaved partial sums (independent, so the loop runs at the
+    memory's speed, not the adder's)."""
     s0 = s1 = s2 = s3 = 0.0
-    end = a.size - a.size % 4
-    for i in range(0, end, 4):
+    end = hi - (hi - lo) % 4
+    for i in range(lo, end, 4):
         s0 += a[i] * b[i]
         s1 += a[i + 1] * b[i + 1]
         s2 += a[i + 2] * b[i + 2]
         s3 += a[i + 3] * b[i + 3]
-    for i in range(end, a.size):
+    for i in range(end, hi):
         s0 += a[i] * b[i]
     return (s0 + s1) + (s2 + s3)
 
 
-@numba.njit(cache=True)
-def new_pair(x_new, x, g_new, g, s, y):
-    """The L-BFGS pair of a step: s = x_new − x and y = g_new − g written in place, and sᵀy
-    (``dot``'s order), in one pass."""
+@numba.njit(cache=True, inline="always")
+def _block_add_scaled_dot(y, alpha, x, w, lo, hi):
+    """y += α·x over [lo, hi), then wᵀy there (``_block_dot``'s order), in one pass."""
     s0 = s1 = s2 = s3 = 0.0
-    end = x.size - x.size % 4
-    for i in range(0, end, 4):
-        for lane in range(4):
-            s[i + lane] = x_new[i + lane] - x[i + lane]
-            y[i + lane] = g_new[i + lane] - g[i + lane]
-        s0 += s[i] * y[i]
-        s1 += s[i + 1] * y[i + 1]
-        s2 += s[i + 2] * y[i + 2]
-        s3 += s[i + 3] * y[i + 3]
-    for i in range(end, x.size):
-        s[i] = x_new[i] - x[i]
-        y[i] = g_new[i] - g[i]
-        s0 += s[i] * y[i]
-    return (s0 + s1) + (s2 + s3)
-
-
-@numba.njit(cache=True)
-def _add_scaled_dot(y, alpha, x, w):
-    """y += α·x in place, and wᵀy of the updated y (``dot``'s order) in the same pass."""
-    s0 = s1 = s2 = s3 = 0.0
-    end = y.size - y.size % 4
-    for i in range(0, end, 4):
+    end = hi - (hi - lo) % 4
+    for i in range(lo, end, 4):
         y[i] += alpha * x[i]
         y[i + 1] += alpha * x[i + 1]
         y[i + 2] += alpha * x[i + 2]
@@ -581,10 +593,91 @@ def _add_scaled_dot(y, alpha, x, w):
         s1 += w[i + 1] * y[i + 1]
         s2 += w[i + 2] * y[i + 2]
         s3 += w[i + 3] * y[i + 3]
-    for i in range(end, y.size):
+    for i in range(end, hi):
         y[i] += alpha * x[i]
         s0 += w[i] * y[i]
     return (s0 + s1) + (s2 + s3)
+
+
+@numba.njit(cache=True, inline="always")
+def _block_pair(x_new, x, g_new, g, s, y, lo, hi):
+    """s = x_new − x and y = g_new − g over [lo, hi), then sᵀy there (``_block_dot``'s order)."""
+    for i in range(lo, hi):
+        s[i] = x_new[i] - x[i]
+        y[i] = g_new[i] - g[i]
+    return _block_dot(s, y, lo, hi)
+
+
+@numba.njit(cache=True, inline="always")
+def _blocks(size):
+    return (size + BLOCK - 1) // BLOCK
+
+
+@numba.njit(cache=True, inline="always")
+def _ordered_sum(partial):
+    total = 0.0
+    for b in range(partial.size):
+        total += partial[b]
+    return total
+
+
+@numba.njit(cache=True, parallel=True)
+def _dot_threads(a, b):
+    partial = np.empty(_blocks(a.size))
+    for k in numba.prange(partial.size):
+        partial[k] = _block_dot(a, b, k * BLOCK, min((k + 1) * BLOCK, a.size))
+    return _ordered_sum(partial)
+
+
+@numba.njit(cache=True)
+def dot(a, b):
+    """aᵀb: block partial sums (BLOCK) added in order, on threads from PARALLEL_MIN_UNKNOWNS
+    entries, the same bits either way."""
+    if a.size >= PARALLEL_MIN_UNKNOWNS:
+        return _dot_threads(a, b)
+    total = 0.0
+    for k in range(_blocks(a.size)):
+        total += _block_dot(a, b, k * BLOCK, min((k + 1) * BLOCK, a.size))
+    return total
+
+
+@numba.njit(cache=True, parallel=True)
+def _add_scaled_dot_threads(y, alpha, x, w):
+    partial = np.empty(_blocks(y.size))
+    for k in numba.prange(partial.size):
+        partial[k] = _block_add_scaled_dot(y, alpha, x, w, k * BLOCK, min((k + 1) * BLOCK, y.size))
+    return _ordered_sum(partial)
+
+
+@numba.njit(cache=True)
+def _add_scaled_dot(y, alpha, x, w):
+    """y += α·x in place, and wᵀy of the updated y (``dot``'s order) in the same pass."""
+    if y.size >= PARALLEL_MIN_UNKNOWNS:
+        return _add_scaled_dot_threads(y, alpha, x, w)
+    total = 0.0
+    for k in range(_blocks(y.size)):
+        total += _block_add_scaled_dot(y, alpha, x, w, k * BLOCK, min((k + 1) * BLOCK, y.size))
+    return total
+
+
+@numba.njit(cache=True, parallel=True)
+def _new_pair_threads(x_new, x, g_new, g, s, y):
+    partial = np.empty(_blocks(x.size))
+    for k in numba.prange(partial.size):
+        partial[k] = _block_pair(x_new, x, g_new, g, s, y, k * BLOCK, min((k + 1) * BLOCK, x.size))
+    return _ordered_sum(partial)
+
+
+@numba.njit(cache=True)
+def new_pair(x_new, x, g_new, g, s, y):
+    """The L-BFGS pair of a step: s = x_new − x and y = g_new − g written in place, and sᵀy
+    (``dot``'s order), in one pass."""
+    if x.size >= PARALLEL_MIN_UNKNOWNS:
+        return _new_pair_threads(x_new, x, g_new, g, s, y)
+    total = 0.0
+    for k in range(_blocks(x.size)):
+        total += _block_pair(x_new, x, g_new, g, s, y, k * BLOCK, min((k + 1) * BLOCK, x.size))
+    return total
 
 
 @numba.njit(cache=True)
