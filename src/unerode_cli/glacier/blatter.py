@@ -484,7 +484,6 @@ class _Multigrid:
             if index == 0 and done:
                 return x, g
             coarse = self.levels[index + 1]
-            periodic = lev.args[-1]
             y0 = bk.inject(x, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx)
             self.evaluations += 1
             shift_c = bk.objective(y0, *coarse.args)[1]
