@@ -582,7 +582,8 @@ def solve(
         has = dof >= 0
         x0[dof[has]] = u0[has]
         x0[n + dof[has]] = v0[has]
-    drive = _norm(bk.driving_force(dof, zeta, grid.dx, grid.dy, args[5], args[9], periodic, n))
+    rho_g = params.rho * params.gravity
+    drive = _norm(bk.driving_force(dof, zeta, grid.dx, grid.dy, tilt, rho_g, periodic, n))
     if drive == 0.0:
         solution.message = "no driving stress"
         return solution

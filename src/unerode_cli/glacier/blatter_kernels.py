@@ -64,6 +64,15 @@ def cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt):
 
 
 @numba.njit(cache=True, inline="always")
+def surface_slope(zeta, j, i, j1, i1, rdx, rdy, tilt):
+    """(∂x s, ∂y s) of the ice surface (the lattice's top level) at the centre of the cell
+    columns (j, i)..(j1, i1), tilt included; rdx, rdy are 1/dx, 1/dy (1/m)."""
+    top = zeta.shape[0] - 1
+    s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
+    return 0.5 * ((s01 - s00) + (s11 - s10)) * rdx - tilt, 0.5 * ((s10 - s00) + (s11 - s01)) * rdy
+
+
+@numba.njit(cache=True, inline="always")
 def terrain_following_gradient(f, k, j, i, j1, i1, dx, dy, ct, ax, ay):
     """(∂x f, ∂y f, ∂z f) of a nodal field f at the centre of a lattice cell, by the chain rule
     of the terrain-following coordinates (∂x = ∂ξ − a_x ∂z, ∂y = ∂η − a_y ∂z)."""
@@ -96,7 +105,6 @@ def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps
     area = dx * dy
     energy = 0.0
     half_p = 0.5 * p
-    top = nz - 1
     j1 = j + 1 if j + 1 < ny else 0
     rdx, rdy = 1.0 / dx, 1.0 / dy
     for i in range(ncx):
@@ -105,9 +113,7 @@ def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps
         if ct <= 0.0:
             continue
         rct = 1.0 / ct
-        s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
-        sx = 0.5 * ((s01 - s00) + (s11 - s10)) * rdx - tilt
-        sy = 0.5 * ((s10 - s00) + (s11 - s01)) * rdy
+        sx, sy = surface_slope(zeta, j, i, j1, i1, rdx, rdy, tilt)
 
         ub00, ub01, ub10, ub11 = u[k, j, i], u[k, j, i1], u[k, j1, i], u[k, j1, i1]
         ut00, ut01, ut10, ut11 = u[k + 1, j, i], u[k + 1, j, i1], u[k + 1, j1, i], u[k + 1, j1, i1]
@@ -320,7 +326,6 @@ def driving_force(dof, zeta, dx, dy, tilt, rho_g, periodic, n):
     ncy = ny if periodic else ny - 1
     gu = np.zeros(zeta.shape)
     gv = np.zeros(zeta.shape)
-    top = nz - 1
     for k in range(nz - 1):
         for j in range(ncy):
             j1 = j + 1 if j + 1 < ny else 0
@@ -329,9 +334,7 @@ def driving_force(dof, zeta, dx, dy, tilt, rho_g, periodic, n):
                 ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
                 if ct <= 0.0:
                     continue
-                s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
-                sx = 0.5 * ((s01 - s00) + (s11 - s10)) / dx - tilt
-                sy = 0.5 * ((s10 - s00) + (s11 - s01)) / dy
+                sx, sy = surface_slope(zeta, j, i, j1, i1, 1.0 / dx, 1.0 / dy, tilt)
                 vol = dx * dy * ct
                 c0u, c0v = vol * rho_g * sx / 8, vol * rho_g * sy / 8
                 for kk in range(k, k + 2):
