@@ -32,10 +32,13 @@ enter erosion, are less accurate than the energy: a few per cent at a residual o
 
 On lattices large enough for the multigrid of ``blatter`` (≥ 2·``blatter.MG_MIN_NODES`` nodes along
 an axis) a solve also ends when its estimated distance to the minimum of the energy is at most
-``flow_energy_rtol`` (``FLOW_ENERGY_RTOL`` = 1e-3) of |E| (``blatter.solve``'s ``energy_rtol``):
+``flow_energy_rtol`` (``FLOW_ENERGY_RTOL`` = 3e-3) of |E| (``blatter.solve``'s ``energy_rtol``):
 the residual criterion alone asked ~100 L-BFGS iterations per step on the bench ice cap where the
 energy was within 5e-6 of the minimum after ~40. ``tests/glacier/test_glacier_multigrid.py`` checks
-the 1 % rule on such a lattice.
+the 1 % rule on such a lattice. The 3e-3 keeps a margin of about 7 on that rule where it matters
+most, the slow ice sheets of a glacial cycle: on the 001 Fig. 6 run at 90 ky (256², dt 50 y) one
+multigrid cycle a step leaves the energy 1.0–1.4e-3 of |E| above a converged solve's (residual
+1e-4), against 1.2–1.9e-4 after the three cycles that 1e-3 asked, in a third of the time.
 
 Domain: cells outside ``grid.valid`` hold no ice (what flows into them is lost, like ice
 leaving through an open edge) and are never eroded; the bed there is filled with the nearest
@@ -65,7 +68,7 @@ FLOW_RTOL = 0.03
 FLOW_MAX_ITER = 1000
 #: On lattices large enough for multigrid (``blatter.MG_MIN_NODES``), a solve also ends once a cycle
 #: lowers the energy by at most this fraction of |E| (see the module docstring).
-FLOW_ENERGY_RTOL = 1e-3
+FLOW_ENERGY_RTOL = 3e-3
 #: Default CFL number c of the multi-scale local step δt (001 §5; ``_multiscale_cfl``).
 MULTISCALE_CFL = transport.CFL
 #: Multi-scale transport from an ice-free state: steps start at this length (y) and grow by
