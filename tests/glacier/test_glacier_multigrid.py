@@ -115,10 +115,10 @@ def test_multigrid_reaches_the_single_lattice_solution(monkeypatch):
 
 
 def test_energy_rule_keeps_every_step_within_one_percent():
-    """The coupled steps on a lattice that takes multigrid stop on the energy (a cycle lowering E by
-    at most ``FLOW_ENERGY_RTOL``·|E|) as well as on the residual: every step's energy stays within
-    1 % of a converged solve (rtol 1e-5) of its geometry (measured: at most 0.27 % with 3e-3,
-    0.03 % with 1e-3)."""
+    """The coupled steps on a lattice that takes multigrid stop on the energy (an estimated distance
+    to its minimum of at most ``FLOW_ENERGY_RTOL``·|E|) as well as on the residual: every step's
+    energy stays within 1 % of a converged solve (rtol 1e-5) of its geometry (measured: at most
+    0.27 % with 3e-3, 0.03 % with 1e-3)."""
     bed, h, grid = _ice_cap()
     params = coupled.CoupledParams(flow=blatter.FlowParams(n_layers=5), erosion=False)
     state = coupled.GlacierState(bed, h)

@@ -558,10 +558,10 @@ def column_solve_factored(inv, ratio, upper, chains, r, out):
 
 
 @numba.njit(cache=True)
-def column_solve(diag, upper, chains, r, out, work):
+def column_solve(diag, upper, chains, r, out):
     """out = T⁻¹·r for T tridiagonal along every column (``picard_columns``), u and v apart:
     the Thomas algorithm (``column_factor`` then ``column_solve_factored``), pivots floored at
-    PIVOT_FLOOR × their diagonal. ``work`` (float64[2n]) is unused (kept for callers)."""
+    PIVOT_FLOOR × their diagonal."""
     inv, ratio = column_factor(diag, upper, chains)
     return column_solve_factored(inv, ratio, upper, chains, r, out)
 

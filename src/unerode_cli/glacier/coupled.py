@@ -66,8 +66,8 @@ from unerode_cli.processes.parameters import check_on_grid
 FLOW_RTOL = 0.03
 #: L-BFGS iterations allowed per step (a step that needs more keeps the velocities it has).
 FLOW_MAX_ITER = 1000
-#: On lattices large enough for multigrid (``blatter.MG_MIN_NODES``), a solve also ends once a cycle
-#: lowers the energy by at most this fraction of |E| (see the module docstring).
+#: On lattices large enough for multigrid (``blatter.MG_MIN_NODES``), a solve also ends once its
+#: estimated distance to the minimum of the energy is at most this fraction of |E| (module docstring).
 FLOW_ENERGY_RTOL = 3e-3
 #: Default CFL number c of the multi-scale local step δt (001 §5; ``_multiscale_cfl``).
 MULTISCALE_CFL = transport.CFL
