@@ -34,7 +34,8 @@ def _energy_case(n: int):
     args = (dof, zeta, c_face, DX, DX, 0.0, params.b, 4.0 / 3.0, 1.5, params.rho * params.gravity,
             params.strain_rate_reg**2, params.sliding_reg**2, False)
     x0 = 20.0 * rng.standard_normal(2 * ndof)
-    return (lambda: blatter_kernels.objective(x0, *args)), n * n * N_LAYERS, "cells"
+    work = blatter_kernels.workspace(dof)
+    return (lambda: blatter_kernels.objective(x0, *args, work)), n * n * N_LAYERS, "cells"
 
 
 for _n in SIZES:

@@ -237,17 +237,17 @@ def _norm(a: np.ndarray) -> float:
 
 
 class _Objective:
-    """∇E − shift of the unknowns (the shift of a coarse level's model, ``_Multigrid``; None:
-    none), counting the evaluations."""
+    """∇E − shift of the unknowns of a lattice (the shift of a coarse level's model,
+    ``_Multigrid``; None: none), counting the evaluations."""
 
-    def __init__(self, kernel, args: tuple, shift: np.ndarray | None = None) -> None:
-        self.kernel, self.args, self.shift = kernel, args, shift
+    def __init__(self, level: _Level, shift: np.ndarray | None = None) -> None:
+        self.level, self.shift = level, shift
         self.evaluations = 0
         self.last: tuple[np.ndarray, float] | None = None  # the last point and its E (unshifted)
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
         self.evaluations += 1
-        energy, g = self.kernel(x, *self.args)
+        energy, g = self.level.evaluate(x)
         self.last = (x, energy)
         if self.shift is not None:
             g -= self.shift
@@ -377,6 +377,15 @@ class _Level:
     transfer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # P to the next coarser level
     history: _History | None = None
     preconditioner: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    work: tuple[np.ndarray, ...] | None = None  # the scratch of ``blatter_kernels.objective``, made on first use
+
+    def evaluate(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """(E, ∇E) at the unknowns x (``blatter_kernels.objective``)."""
+        from unerode_cli.glacier import blatter_kernels as bk
+
+        if self.work is None:
+            self.work = bk.workspace(self.dof)
+        return bk.objective(x, *self.args, self.work)
 
 
 def _level(b: np.ndarray, h: np.ndarray, c_node: np.ndarray, valid: np.ndarray, dx: float, dy: float,
@@ -475,7 +484,7 @@ class _Multigrid:
         from unerode_cli.glacier import blatter_kernels as bk
 
         lev = self.levels[index]
-        obj = _Objective(bk.objective, lev.args, shift)
+        obj = _Objective(lev, shift)
         try:
             if index == len(self.levels) - 1:
                 return self._smooth(index, obj, x, g, MG_COARSE)
@@ -486,7 +495,7 @@ class _Multigrid:
             coarse = self.levels[index + 1]
             y0 = bk.inject(x, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx)
             self.evaluations += 1
-            shift_c = bk.objective(y0, *coarse.args)[1]
+            shift_c = coarse.evaluate(y0)[1]
             shift_c -= bk.restrict_gradient(g, lev.transfer, coarse.n)
             y, _ = self.cycle(y0, None, index + 1, shift_c)
             e = bk.prolong(y - y0, lev.transfer, lev.n)
@@ -589,7 +598,7 @@ def solve(
         return solution
 
     x, nit, nfev = x0, 0, 0
-    energy, g = bk.objective(x0, *args)
+    energy, g = fine.evaluate(x0)
     r = _norm(g) / drive
     levels = (_hierarchy(b, h, c_node, valid, grid.dx, grid.dy, params, periodic, tilt, fine)
               if r > rtol else [])
@@ -604,7 +613,7 @@ def solve(
             mg.energy = None
             x, g = mg.cycle(x, g, budget=max_iter)
             if mg.energy is None:
-                energy, g = bk.objective(x, *args)
+                energy, g = fine.evaluate(x)
                 mg.evaluations += 1
             else:
                 energy = mg.energy
@@ -632,7 +641,7 @@ def solve(
         # longer resolves the steps) twice in a row ends the minimisation.
         diag, upper = bk.picard_columns(x, dof, zeta, c_face, grid.dx, grid.dy, args[5], params.b, p,
                                         params.sigma, _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, periodic)
-        obj = _Objective(bk.objective, args)
+        obj = _Objective(fine)
         inv, ratio = bk.column_factor(diag, upper, chains)
 
         def direction_of(g, s_hist, y_hist, rho, count, newest, inv=inv, ratio=ratio, upper=upper):
@@ -646,7 +655,7 @@ def solve(
     message = ("converged" if r <= rtol else "converged: energy settled" if settled else
                "stalled: rounding of the energy" if stalls else "iteration limit reached")
     if len(levels) <= 1:
-        energy, g = bk.objective(x, *args)
+        energy, g = fine.evaluate(x)
     solution.u, solution.v = bk.expand(x, dof)
     solution.iterations, solution.evaluations = nit, nfev
     solution.residual = _norm(g) / drive

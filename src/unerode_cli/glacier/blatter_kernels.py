@@ -193,8 +193,9 @@ def _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2):
 
 
 @numba.njit(cache=True)
-def energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic):
-    """Blatter–Pattyn energy E (Pa·m³/y) and its gradient with respect to every node velocity.
+def energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic, gu, gv):
+    """Blatter–Pattyn energy E (Pa·m³/y); its gradient with respect to every node velocity
+    written into gu, gv.
 
     Args:
         u, v: float64[N+1, ny, nx] velocities along x and y (m/y).
@@ -208,17 +209,18 @@ def energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, e
         p: 1 + 1/n; sigma: sliding exponent σ; rho_g: ρ·g (Pa/m).
         eps2: ε² (1/y²); ureg2: u_ε² (m²/y²).
         periodic: wrap the lattice around both axes.
+        gu, gv: float64[N+1, ny, nx], overwritten with ∂E/∂u, ∂E/∂v (Pa·m³/y per m/y).
 
     Returns:
-        (E, ∂E/∂u, ∂E/∂v), the gradients float64[N+1, ny, nx] in Pa·m³/y per m/y.
+        E.
 
     Serial; ``energy_gradient_parallel`` gives the same numbers on threads.
     """
     nz, ny, nx = u.shape
     ncx = nx if periodic else nx - 1
     ncy = ny if periodic else ny - 1
-    gu = np.zeros_like(u)
-    gv = np.zeros_like(v)
+    gu[:] = 0.0
+    gv[:] = 0.0
     rows = np.zeros(ncy)
     paired = ncy - 1 if (periodic and ncy % 2 == 1) else ncy
     for parity in range(2):  # the order of ``energy_gradient_parallel``
@@ -232,12 +234,12 @@ def energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, e
     for j in range(ncy):
         energy += rows[j]
     energy += _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2)
-    return energy, gu, gv
+    return energy
 
 
 @numba.njit(cache=True, parallel=True)
 def energy_gradient_parallel(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2,
-                             periodic):
+                             periodic, gu, gv):
     """``energy_gradient`` on threads, with the same result whatever their number: the rows of
     cells are done even rows first, then odd ones (a row writes the node rows j and j + 1 only,
     so rows of one parity never write the same node), each row by one thread in a fixed order;
@@ -246,8 +248,9 @@ def energy_gradient_parallel(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
     nz, ny, nx = u.shape
     ncx = nx if periodic else nx - 1
     ncy = ny if periodic else ny - 1
-    gu = np.zeros_like(u)
-    gv = np.zeros_like(v)
+    for j in numba.prange(ny):
+        gu[:, j] = 0.0
+        gv[:, j] = 0.0
     rows = np.zeros(ncy)
     paired = ncy - 1 if (periodic and ncy % 2 == 1) else ncy
     for parity in range(2):
@@ -262,7 +265,7 @@ def energy_gradient_parallel(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
     for j in range(ncy):
         energy += rows[j]
     energy += _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2)
-    return energy, gu, gv
+    return energy
 
 
 #: Lattices of at least this many nodes have their energy and gradient computed on threads.
@@ -270,12 +273,10 @@ PARALLEL_MIN_NODES = 100_000
 
 
 @numba.njit(cache=True)
-def expand(x, dof):
-    """Node velocities (u, v), float64[N+1, ny, nx] each, from the unknowns x = [u_dof, v_dof]
-    (m/y); nodes with dof −1 are held at zero."""
+def expand_into(x, dof, u, v):
+    """Write the node velocities (u, v), float64[N+1, ny, nx] each, of the unknowns
+    x = [u_dof, v_dof] (m/y); nodes with dof −1 are held at zero."""
     n = x.size // 2
-    u = np.zeros(dof.shape)
-    v = np.zeros(dof.shape)
     uf = u.reshape(dof.size)
     vf = v.reshape(dof.size)
     df = dof.reshape(dof.size)
@@ -284,6 +285,17 @@ def expand(x, dof):
         if d >= 0:
             uf[idx] = x[d]
             vf[idx] = x[n + d]
+        else:
+            uf[idx] = 0.0
+            vf[idx] = 0.0
+
+
+@numba.njit(cache=True)
+def expand(x, dof):
+    """Node velocities (u, v) of the unknowns x (``expand_into``), in new arrays."""
+    u = np.empty(dof.shape)
+    v = np.empty(dof.shape)
+    expand_into(x, dof, u, v)
     return u, v
 
 
@@ -302,16 +314,27 @@ def restrict(gu, gv, dof, n):
     return g
 
 
+def workspace(dof):
+    """Scratch of ``objective`` for the lattice of ``dof``: four float64[N+1, ny, nx] arrays (u, v
+    and their gradients). Kept from one evaluation to the next, it spares each evaluation the
+    first touch of four new arrays of the lattice's size: 33 instead of 48 ms at 256² × 10 and
+    138 instead of 180 ms at 512² × 10 (one thread). Four arrays, not one block of four: a
+    float64[4, N+1, ny, nx] block took 236 ms at 512²."""
+    return tuple(np.empty(dof.shape) for _ in range(4))
+
+
 @numba.njit(cache=True)
-def objective(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic):
-    """Energy (Pa·m³/y) and its gradient with respect to the unknowns x = [u_dof, v_dof]."""
-    u, v = expand(x, dof)
+def objective(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2, periodic, work):
+    """Energy (Pa·m³/y) and its gradient with respect to the unknowns x = [u_dof, v_dof];
+    ``work`` (``workspace``) is overwritten."""
+    u, v, gu, gv = work
+    expand_into(x, dof, u, v)
     if u.size >= PARALLEL_MIN_NODES:
-        energy, gu, gv = energy_gradient_parallel(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
-                                                  rho_g, eps2, ureg2, periodic)
+        energy = energy_gradient_parallel(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2,
+                                          ureg2, periodic, gu, gv)
     else:
-        energy, gu, gv = energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g,
-                                         eps2, ureg2, periodic)
+        energy = energy_gradient(u, v, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2, ureg2,
+                                 periodic, gu, gv)
     return energy, restrict(gu, gv, dof, x.size // 2)
 
 
