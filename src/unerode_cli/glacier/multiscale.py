@@ -66,6 +66,8 @@ accumulation included — so fast ice follows a changing climate late. On the 00
 (256² of 250 m, the ELA falling 18 m per ky, c = 0.05) the ice volume of dt = 50 y lags that of
 dt = 10 y by 9–11 % from 5 to 50 ky and by 56 % at 70 ky, as the ice sheet forms (555 against
 1252 km³); dt = 20 y lags by 3–5 % up to 30 ky. 001 Fig. 11 reports ~1 % for 10–20 y (with c = 0.1).
+Shorter transport steps inside a step (``coupled.CoupledParams.multiscale_dt``) close the gap
+where the held velocities stay stable (``coupled._multiscale``).
 
 Starting from no ice, the first step lays dt·M at once (still ice: δt = dt), and the edge this
 leaves at the equilibrium line is steep: on the ice cap of the tests, with SIA velocities, a start
