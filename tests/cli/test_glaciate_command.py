@@ -129,20 +129,6 @@ def test_the_transport_cfl_reaches_the_multiscale_step(tmp_path: Path) -> None:
     assert volumes[0.05] != pytest.approx(volumes[0.1], rel=1e-3)
 
 
-def test_the_transport_dt_cuts_each_step_into_transport_steps(tmp_path: Path) -> None:
-    """--transport-dt is recorded in the sidecar, and each step of --dt moves the ice in
-    ⌈dt / transport-dt⌉ multi-scale steps: 10, 15 (ramp), 30, 60 y in steps of ≤ 20 y: 1, 1, 1, 2."""
-    dem = write_geotiff(tmp_path / "v.tif", valley(12, 18, 300.0, base=2400.0, head=900.0, scale=2000.0
-                                                   ).astype(np.float32), _transform(300.0))
-    out = tmp_path / "bed.tif"
-    result = run_cli("glaciate", dem, out, "--ela", ELA, "--duration", 60, "--dt", 30, "--layers", 5,
-                     "--transport-dt", 20, "--no-hillslope", "--no-debris", "--no-fluvial")
-    assert result.returncode == 0, result.stderr
-    sidecar = json.loads((tmp_path / "bed.tif.json").read_text())
-    assert sidecar["parameters"]["transport_dt_years"] == 20
-    assert sidecar["statistics"]["steps"] == 4 and sidecar["statistics"]["transport_substeps"] == 5
-
-
 def test_blatter_valley_glacier_turns_the_v_into_a_u(tmp_path: Path) -> None:
     """Blatter–Pattyn flow with sliding erodes the lower walls most, widening the floor: the
     power-law exponent b of the cross-sections (1 for a V, 2 for a U) rises. Measured after
@@ -245,7 +231,6 @@ def test_ela_time_table(tmp_path: Path, valley_dem: Path) -> None:
      "--no-substep"),
     (("--transport-cfl", 0), "--transport-cfl"),
     (("--transport-cfl", 1.5), "--transport-cfl"),
-    (("--transport-dt", 0), "--transport-dt"),
 ])
 def test_bad_options_exit_2(tmp_path: Path, valley_dem: Path, args, mentions) -> None:
     ice = write_geotiff(tmp_path / "h0.tif", np.full((40, 60), 100.0, np.float32), _transform(DX))

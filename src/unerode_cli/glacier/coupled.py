@@ -124,8 +124,7 @@ class CoupledParams:
     ``k_e`` (m^(1−l)·y^(l−1)), ``abrasion_exponent`` l, ``k_q`` (1): 001 §6.1.
     ``flow_rtol``, ``flow_max_iter``, ``flow_energy_rtol``: the velocity re-solve policy (module
     docstring). ``multiscale_cfl``: CFL number c of the multi-scale local step δt, in (0, 1]
-    (001 §5: 0.1; ``_multiscale_cfl`` says when to lower it). ``multiscale_dt``: the longest
-    multi-scale transport step (y; None: the whole step, ``_multiscale``).
+    (001 §5: 0.1; ``_multiscale_cfl`` says when to lower it).
     """
 
     flow: blatter.FlowParams = field(default_factory=blatter.FlowParams)
@@ -146,7 +145,6 @@ class CoupledParams:
     flow_max_iter: int = FLOW_MAX_ITER
     flow_energy_rtol: float = FLOW_ENERGY_RTOL
     multiscale_cfl: float = MULTISCALE_CFL
-    multiscale_dt: float | None = None
     held_bed: np.ndarray | None = None
 
     def validate(self, shape: tuple[int, int]) -> None:
@@ -169,9 +167,6 @@ class CoupledParams:
                              f"got {np.shape(self.held_bed)}")
         if not 0.0 < self.multiscale_cfl <= 1.0:
             raise ValueError(f"the multi-scale CFL number must be in (0, 1], got {self.multiscale_cfl:g}")
-        if self.multiscale_dt is not None and not (0.0 < self.multiscale_dt < math.inf):
-            raise ValueError(f"the multi-scale transport step must be finite and > 0, "
-                             f"got {self.multiscale_dt:g} y")
         if self.snow_slope_min > self.snow_slope_max:
             raise ValueError(f"snow_slope_min ({self.snow_slope_min:g}°) must not exceed "
                              f"snow_slope_max ({self.snow_slope_max:g}°)")
@@ -261,8 +256,7 @@ class GlacierState:
 @dataclass(frozen=True)
 class StepReport:
     """What one step did: ``time`` (y) at its end, ``dt`` (y), ice ``volume`` (m³) at its end,
-    the ``flow`` of its start geometry, its transport ``substeps`` (explicit sub-steps, or
-    multi-scale steps of at most ``multiscale_dt``),
+    the ``flow`` of its start geometry, ``substeps`` of explicit transport (1 for multi-scale),
     ``eroded`` volume of bedrock removed (m³, ≥ 0); wall-clock seconds spent on the ice flow
     (``flow_seconds``) and on the rest of the step (``transport_seconds``: mass balance, transport,
     erosion)."""
@@ -420,8 +414,10 @@ def step(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, dt: f
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # a blow-up: Diverged below
         flow = flow_field(state.bed, h, grid, params, warm=state.lattice)
         flow_done = clock.perf_counter()
+        substeps = 1
         if params.transport == "multiscale":
-            h_new, substeps = _multiscale(state, flow, grid, params, ela, dt)
+            h_new = multiscale.step(h, *flow.mean, _mass_balance(state, grid, params, ela), grid, dt,
+                                    params.boundary, c=_multiscale_cfl(flow, grid, params.multiscale_cfl))
             change = dt * _erosion_rate(state.bed, flow, grid, params) if params.erosion else 0.0
         else:
             h_new, change, substeps = _explicit(state, flow, grid, params, ela, dt)
@@ -457,30 +453,6 @@ def surface_overshoot(before: GlacierState, after: GlacierState, grid: Grid, par
     highest = ndimage.maximum_filter(old, size=2 * reach + 1, mode="nearest")
     rise = np.where(grid.valid, after.bed + after.thickness - highest, -np.inf)
     return float(rise.max()) - float(np.max(params.p_max)) * dt
-
-
-def _multiscale(state: GlacierState, flow: FlowField, grid: Grid, params: CoupledParams, ela: Ela,
-                dt: float) -> tuple[np.ndarray, int]:
-    """Multi-scale transport over dt (``multiscale.step``) in ⌈dt / multiscale_dt⌉ equal steps with
-    the velocities of the step, the mass balance taken again on each one's surface. Returns (H,
-    count).
-
-    A multi-scale step takes in only min(f^i·δt_i, dt)/dt of the tendency where the ice is fast
-    (``multiscale``), so long steps make growing ice lag. On the 001 Fig. 6 glaciation (256², dt =
-    50 y) the ice volume lagged a dt = 10 y run by 8–10 % from 2 to 10 ky; five transport steps of
-    10 y in each 50-year step (one velocity solve) kept it within −1.6…+1.4 % up to 59 ky. The
-    velocities are held for the whole step, though, and fast ice then overfills hollows
-    (``tests/glacier/test_glacier_coupled_cfl.py``): at 62.3 ky, as the ice sheet formed, a cell
-    moved by 19.5 km and the run diverged."""
-    count = 1 if params.multiscale_dt is None else max(1, math.ceil(dt / params.multiscale_dt - 1e-9))
-    part = dt / count
-    c = _multiscale_cfl(flow, grid, params.multiscale_cfl)
-    h = state.thickness
-    for k in range(count):
-        sub_state = state if k == 0 else replace(state, thickness=h, time=state.time + k * part)
-        h = multiscale.step(h, *flow.mean, _mass_balance(sub_state, grid, params, ela), grid, part,
-                            params.boundary, c=c)
-    return h, count
 
 
 def _explicit(state: GlacierState, flow: FlowField, grid: Grid, params: CoupledParams, ela: Ela,
@@ -551,7 +523,7 @@ WALL_TIME_PARTS = ("ice_flow", "transport_erosion", "ice_free", "other")
 @dataclass
 class RunResult:
     """A run: the final ``state``, the ice-volume series (``times`` y, ``volumes`` m³, from t = 0,
-    one entry per step taken), and totals: ``steps``, ``substeps`` (transport steps),
+    one entry per step taken), and totals: ``steps``, ``substeps`` (explicit transport),
     ``resolves`` (steps whose velocities were iterated), ``evaluations`` (L-BFGS energy
     evaluations), ``unconverged`` (solves that hit their iteration limit), ``max_residual``,
     ``eroded`` (m³ of bedrock removed), ``retries`` (multi-scale steps taken again at half their

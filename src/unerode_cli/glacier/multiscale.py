@@ -66,8 +66,11 @@ accumulation included — so fast ice follows a changing climate late. On the 00
 (256² of 250 m, the ELA falling 18 m per ky, c = 0.05) the ice volume of dt = 50 y lags that of
 dt = 10 y by 9–11 % from 5 to 50 ky and by 56 % at 70 ky, as the ice sheet forms (555 against
 1252 km³); dt = 20 y lags by 3–5 % up to 30 ky. 001 Fig. 11 reports ~1 % for 10–20 y (with c = 0.1).
-Shorter transport steps inside a step (``coupled.CoupledParams.multiscale_dt``) close the gap
-where the held velocities stay stable (``coupled._multiscale``).
+Tried and not kept: five transport steps of 10 y inside each 50-year step, the velocities solved
+once. The Fig. 6 volume then kept within −1.6…+1.4 % of the dt = 10 y run up to 59 ky, but the
+held velocities overfill hollows (``tests/glacier/test_glacier_coupled_cfl.py``): the forming ice
+sheet diverged at 62.3 ky, and on Grindelwald (2000 y, ELA 2900 m) 32 cells grew spikes of up to
+544 m of ice beside bare cells (220 m at most in plain 50-year steps), in twice the time.
 
 Starting from no ice, the first step lays dt·M at once (still ice: δt = dt), and the edge this
 leaves at the equilibrium line is steep: on the ice cap of the tests, with SIA velocities, a start

@@ -103,7 +103,6 @@ class GlacierJob:
     background_slope: float = 0.0
     transport: str = "multiscale"
     transport_cfl: float = coupled.MULTISCALE_CFL
-    transport_dt: float | None = None
     allow_substeps: bool = True
     erosion: bool = True
     ice_thickness: Path | None = None
@@ -198,8 +197,7 @@ def plan(job: GlacierJob) -> PreparedGlacierJob:
     try:
         params = coupled.CoupledParams(
             flow=blatter.FlowParams(**flow_params), iceflow=job.iceflow, transport=job.transport,
-            multiscale_cfl=job.transport_cfl, multiscale_dt=job.transport_dt,
-            allow_substeps=job.allow_substeps, boundary=job.boundary,
+            multiscale_cfl=job.transport_cfl, allow_substeps=job.allow_substeps, boundary=job.boundary,
             background_slope=math.radians(job.background_slope), erosion=job.erosion,
             held_bed=outlet_mask(terrain.grid, "all" if job.boundary == "open" else "none"), **values)
         params.validate(terrain.shape)
@@ -408,8 +406,7 @@ def _provenance(job: GlacierJob, params: coupled.CoupledParams, given: dict[str,
             "iceflow": job.iceflow, "layers": job.layers, "sliding_c": job.sliding_c,
             "sliding_sigma": job.sliding_sigma, "rate_factor": params.flow.glen_a, "boundary": job.boundary,
             "background_slope_degrees": job.background_slope, "transport": job.transport,
-            "transport_cfl": job.transport_cfl, "transport_dt_years": job.transport_dt,
-            "allow_substeps": job.allow_substeps, "erosion": job.erosion,
+            "transport_cfl": job.transport_cfl, "allow_substeps": job.allow_substeps, "erosion": job.erosion,
             "ice_thickness": job.ice_thickness,
             "diagnostic": job.diagnostic, "hillslope": job.hillslope, "debris": job.debris,
             "fluvial": job.fluvial, "shield_thickness_m": job.shield_thickness,
