@@ -377,7 +377,7 @@ class _Level:
     transfer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # P to the next coarser level
     history: _History | None = None
     preconditioner: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-    work: tuple[np.ndarray, ...] | None = None  # the scratch of ``blatter_kernels.objective``, made on first use
+    work: tuple[np.ndarray, ...] | None = None  # ``blatter_kernels.objective``'s scratch, made on first use
 
     def evaluate(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """(E, ∇E) at the unknowns x (``blatter_kernels.objective``)."""
