@@ -71,6 +71,16 @@ once. The Fig. 6 volume then kept within −1.6…+1.4 % of the dt = 10 y run up
 held velocities overfill hollows (``tests/glacier/test_glacier_coupled_cfl.py``): the forming ice
 sheet diverged at 62.3 ky, and on Grindelwald (2000 y, ELA 2900 m) 32 cells grew spikes of up to
 544 m of ice beside bare cells (220 m at most in plain 50-year steps), in twice the time.
+Also tried on the same run to 30 ky (dt = 50 y against dt = 10 y, −9.4…−10.5 % as it is): f = 2
+(−6.9…−10.1 %), levels down to one cell (``MIN_LEVEL_CELLS`` = 1: −8.4…−9.3 %), and a
+conservative sum T' = Σ_i S_i((w_i − w_{i−1})·T), each level's share weighted where the tendency
+arises and then smoothed (S_i: i times down, i times up), which spreads the accumulation onto
+ice-free ground where it melts (−12…−21 %, three times the cost). None is kept. One step from the
+dt = 50 y state at 30 ky shows why a weight does not close the gap: an explicit step would gain
+dt·Σ_x T = 4.05 km³, the multi-scale step gains 0.37 km³ and five steps of 10 y 0.61 km³. The
+gain is a small difference of large terms, −0.5…−0.9 km³ from each level Σ_x w_i·R_i (larger
+weights outside the ice than under it) against +3.5 km³ from T_n, so a change of any weight moves
+it by tens of per cent. Both step lengths are far from the explicit rate, the reference too.
 
 Starting from no ice, the first step lays dt·M at once (still ice: δt = dt), and the edge this
 leaves at the equilibrium line is steep: on the ice cap of the tests, with SIA velocities, a start
