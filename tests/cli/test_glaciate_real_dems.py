@@ -112,6 +112,20 @@ def test_a_diverging_run_stops_at_that_step_exit_1_and_writes_nothing(tmp_path: 
     assert files_in(tmp_path) == before
 
 
+def test_an_explicit_step_far_above_its_stability_limit_exits_1_at_once(tmp_path: Path) -> None:
+    """Explicit transport in steps of 1000 y: the first lays up to 2 km of ice on the bare crop,
+    the second would need millions of sub-steps under it and stops before its first, exit 1,
+    nothing written."""
+    dem = crop(SAMPLE_DEMS / "valley_utm32n_30m.tif", slice(0, 32), slice(0, 32), tmp_path / "v.tif")
+    before = files_in(tmp_path)
+    result = run_cli("glaciate", dem, tmp_path / "out.tif", "--ela", 800, "--duration", 2000, "--dt", 1000,
+                     "--iceflow", "sia", "--transport", "explicit", "--ice", tmp_path / "ice.tif")
+    assert result.returncode == 1, result.stderr
+    assert "explicit sub-steps" in result.stderr and "multi-scale transport" in result.stderr, result.stderr
+    assert "Traceback" not in result.stderr
+    assert files_in(tmp_path) == before
+
+
 def test_a_sane_run_of_the_same_crop_is_not_stopped(tmp_path: Path) -> None:
     """The guard does not fire on the same crop with the default sliding: the bound can fail."""
     dem = crop(SAMPLE_DEMS / "valley_utm32n_30m.tif", slice(0, 32), slice(0, 32), tmp_path / "v.tif")

@@ -198,6 +198,25 @@ def test_explicit_transport_sub_steps_or_refuses():
     assert just_stable.substeps == 1
 
 
+def test_an_explicit_step_that_needs_too_many_sub_steps_stops_before_the_first(monkeypatch):
+    """A step of MAX_SUBSTEPS + 10 stability limits is refused before any transport, with the
+    limit and the fastest speed of the flow it was measured on."""
+    bed, grid = _valley()
+    h0 = np.where(bed > 2800.0, 80.0, 0.0)
+    params = coupled.CoupledParams(flow=blatter.FlowParams(sliding_c=1e5), iceflow="sia",
+                                   transport="explicit")
+    flow = coupled.sia_flow(bed, h0, grid, params.flow)
+    limit = min(transport.max_stable_dt(*flow.mean, grid), sia.max_stable_dt(flow.diffusivity, grid))
+    calls = []
+    monkeypatch.setattr(transport, "step", lambda *args: calls.append(args))
+    with pytest.raises(coupled.TooManySubsteps) as caught:
+        coupled.step(coupled.GlacierState(bed, h0), grid, params, 3000.0, limit * (coupled.MAX_SUBSTEPS + 10))
+    assert calls == []
+    assert caught.value.limit == pytest.approx(limit, rel=1e-12)
+    assert caught.value.speed == pytest.approx(float(np.max(np.hypot(*flow.mean))), rel=1e-12)
+    assert f"more than {coupled.MAX_SUBSTEPS} explicit sub-steps" in str(caught.value)
+
+
 def test_cells_outside_the_domain_get_no_ice_and_no_erosion():
     bed, grid = _valley()
     valid = np.ones(bed.shape, dtype=bool)

@@ -75,7 +75,7 @@ MULTISCALE_CFL = transport.CFL
 #: RAMP_FACTOR per step up to dt (``multiscale``: a cold start at a long dt can blow up).
 RAMP_START = 10.0
 RAMP_FACTOR = 1.5
-#: Most explicit sub-steps in one step before giving up.
+#: Most explicit sub-steps in one step: a step that needs more stops before its first (``TooManySubsteps``).
 MAX_SUBSTEPS = 100_000
 #: Multi-scale steps that raise the ice surface above what the ice around could feed
 #: (``surface_overshoot``) are taken again at half their length, down to this length (y).
@@ -109,6 +109,17 @@ class Diverged(FloatingPointError):
     def __init__(self, time: float, dt: float) -> None:
         super().__init__(f"the ice thickness diverged in the step of {dt:g} y from t = {time:g} y")
         self.time, self.dt = time, dt
+
+
+class TooManySubsteps(RuntimeError):
+    """An explicit step would need more than ``MAX_SUBSTEPS`` sub-steps: the ice is far too fast
+    for its stability limit (velocities that have blown up, or a dt of millennia)."""
+
+    def __init__(self, time: float, dt: float, limit: float, speed: float) -> None:
+        super().__init__(f"the step of {dt:g} y from t = {time:g} y needs more than {MAX_SUBSTEPS} "
+                         f"explicit sub-steps (stable step {limit:.3g} y, the fastest ice at "
+                         f"{speed:.3g} m/y)")
+        self.time, self.dt, self.limit, self.speed = time, dt, limit, speed
 
 
 @dataclass(frozen=True)
@@ -470,6 +481,8 @@ def _explicit(state: GlacierState, flow: FlowField, grid: Grid, params: CoupledP
                 flow = flow_field(state.bed, h, grid, params)
             sub_state = replace(state, thickness=h, time=state.time + done)
             limit = _explicit_limit(flow, grid)
+        if dt - done > limit * (MAX_SUBSTEPS - count):
+            raise TooManySubsteps(state.time, dt, limit, float(np.max(np.hypot(*flow.mean))))
         sub = min(dt - done, limit)
         if dt - done - sub < 1e-9 * dt:
             sub = dt - done
@@ -479,9 +492,6 @@ def _explicit(state: GlacierState, flow: FlowField, grid: Grid, params: CoupledP
             change = change + sub * _erosion_rate(state.bed, flow, grid, params)
         done += sub
         count += 1
-        if count > MAX_SUBSTEPS:
-            raise RuntimeError(f"more than {MAX_SUBSTEPS} explicit sub-steps in one step of {dt:g} y "
-                               f"(stability limit {limit:.3g} y)")
     return h, change, count
 
 
