@@ -502,8 +502,8 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         except coupled.Diverged as exc:
             raise RunFailure(f"{exc}; lower --dt or --transport-cfl, or use --transport explicit") from None
         except coupled.TooManySubsteps as exc:
-            raise RunFailure(f"{exc}; use the multi-scale transport (the default) or a shorter --dt") \
-                from None
+            raise RunFailure(
+                f"{exc}; use the multi-scale transport (the default) or a shorter --dt") from None
     final = result.state
     stats = _statistics(result, terrain, time.perf_counter() - start, snapshots, note)
     # the job's "other" adds its set-up to the loop's own (coupled.run), so the parts add up to the wall
