@@ -102,8 +102,10 @@ class Case:
 SMALL = Case((30, 45), max_ice=155.0, b_coupled=1.27, b_fluvial=1.02, glacial_cliffs=118)
 # FULL's glaciers are thickest where they leave the map (its west edge): 180 m when an open edge
 # let the ice out at the edge cell's own velocity, which the edge's rising surface slows
-# (``glacier.transport_kernels``), 155 m since it takes the faster velocity of the cell inside.
-FULL = Case((40, 60), max_ice=155.0, b_coupled=1.11, b_fluvial=0.98, glacial_cliffs=180)
+# (``glacier.transport_kernels``), 155 m since it takes the faster velocity of the cell inside,
+# and 196 m since no erosion cuts adverse bed slopes (``glacier.erosion``): the edge cell, cut
+# least, is a sill that the cells behind it no longer deepen past (186 m at ζ = 10⁶).
+FULL = Case((40, 60), max_ice=196.0, b_coupled=1.11, b_fluvial=0.98, glacial_cliffs=180)
 
 
 def _valley(shape: tuple[int, int]) -> np.ndarray:

@@ -132,7 +132,8 @@ class CoupledParams:
     ``beta`` (1/y), ``p_max`` (m/y): 001 Eq. 2, number or raster; ``snow_slope_min``,
     ``snow_slope_max`` (degrees): the surface slopes between which accumulation falls from all
     to none (``massbalance``). ``erosion``: erode the bed;
-    ``k_e`` (m^(1−l)·y^(l−1)), ``abrasion_exponent`` l, ``k_q`` (1): 001 §6.1.
+    ``k_e`` (m^(1−l)·y^(l−1)), ``abrasion_exponent`` l, ``k_q`` (1): 001 §6.1;
+    ``adverse_slope_ratio`` ζ (1): no erosion on steeper adverse bed slopes (``erosion``).
     ``flow_rtol``, ``flow_max_iter``, ``flow_energy_rtol``: the velocity re-solve policy (module
     docstring). ``multiscale_cfl``: CFL number c of the multi-scale local step δt, in (0, 1]
     (001 §5: 0.1; ``_multiscale_cfl`` says when to lower it).
@@ -150,6 +151,7 @@ class CoupledParams:
     k_e: float | np.ndarray = 1.3e-7
     abrasion_exponent: float = 2.02
     k_q: float | np.ndarray = 3.2e-5
+    adverse_slope_ratio: float = 1.5
     snow_slope_min: float = massbalance.SNOW_SLOPES[0]
     snow_slope_max: float = massbalance.SNOW_SLOPES[1]
     flow_rtol: float = FLOW_RTOL
@@ -389,7 +391,8 @@ def _multiscale_cfl(flow: FlowField, grid: Grid, c: float) -> float:
     return c * min(1.0, sia.max_stable_dt(flow.diffusivity, grid) / cfl_limit)
 
 
-def _erosion_rate(bed: np.ndarray, flow: FlowField, grid: Grid, params: CoupledParams) -> np.ndarray:
+def _erosion_rate(bed: np.ndarray, thickness: np.ndarray, flow: FlowField, grid: Grid,
+                  params: CoupledParams) -> np.ndarray:
     """Abrasion + quarrying (m/y, ≤ 0) under the sliding ice (001 §6.1), 0 outside the domain and
     on ``params.held_bed``.
 
@@ -403,7 +406,8 @@ def _erosion_rate(bed: np.ndarray, flow: FlowField, grid: Grid, params: CoupledP
     the edge is a sill: the bed behind it may deepen (an over-deepening), but the ice must then
     climb out over the sill, and a deeper basin slows it down instead of speeding it up."""
     abrasion, quarrying = erosion.erosion_rates(bed, *flow.basal, grid, params.k_e, params.abrasion_exponent,
-                                                params.k_q, params.boundary)
+                                                params.k_q, params.boundary, surface=bed + thickness,
+                                                adverse_slope_ratio=params.adverse_slope_ratio)
     eroding = grid.valid if params.held_bed is None else grid.valid & ~params.held_bed
     return np.where(eroding, abrasion + quarrying, 0.0)
 
@@ -429,7 +433,7 @@ def step(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, dt: f
         if params.transport == "multiscale":
             h_new = multiscale.step(h, *flow.mean, _mass_balance(state, grid, params, ela), grid, dt,
                                     params.boundary, c=_multiscale_cfl(flow, grid, params.multiscale_cfl))
-            change = dt * _erosion_rate(state.bed, flow, grid, params) if params.erosion else 0.0
+            change = (dt * _erosion_rate(state.bed, h, flow, grid, params) if params.erosion else 0.0)
         else:
             h_new, change, substeps = _explicit(state, flow, grid, params, ela, dt)
         h_new = np.where(valid, h_new, 0.0)
@@ -489,7 +493,7 @@ def _explicit(state: GlacierState, flow: FlowField, grid: Grid, params: CoupledP
         m = _mass_balance(sub_state, grid, params, ela)
         h = np.where(grid.valid, transport.step(h, *flow.mean, m, grid, sub, params.boundary), 0.0)
         if params.erosion:
-            change = change + sub * _erosion_rate(state.bed, flow, grid, params)
+            change = change + sub * _erosion_rate(state.bed, state.thickness, flow, grid, params)
         done += sub
         count += 1
     return h, change, count
