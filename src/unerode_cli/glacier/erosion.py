@@ -45,6 +45,20 @@ PARAMETERS: tuple[ParamSpec, ...] = (
 )
 
 
+def _differences(z: np.ndarray, axis: int, boundary: str, past_edge: float) -> tuple[np.ndarray, np.ndarray]:
+    """(z[i+1] − z[i], z[i] − z[i−1]) along ``axis`` (m): wrapped where ``boundary`` is
+    ``"periodic"``; where it is ``"open"``, ``past_edge`` stands for the difference to the missing
+    neighbour (``+past_edge`` ahead of the last cell, ``−past_edge`` behind the first)."""
+    if boundary == "periodic":
+        return np.roll(z, -1, axis=axis) - z, z - np.roll(z, 1, axis=axis)
+    if boundary != "open":
+        raise ValueError(f"boundary must be 'periodic' or 'open', got {boundary!r}")
+    edge = np.diff(z, axis=axis)
+    ahead = np.pad(edge, [(0, 1) if a == axis else (0, 0) for a in (0, 1)], constant_values=past_edge)
+    behind = np.pad(edge, [(1, 0) if a == axis else (0, 0) for a in (0, 1)], constant_values=-past_edge)
+    return ahead, behind
+
+
 def downward_gradient(z: np.ndarray, grid: Grid, boundary: str = "open") -> tuple[np.ndarray, np.ndarray]:
     """(∂z/∂x, ∂z/∂y) (m/m) taken towards the lower neighbour along each axis (001 §6.1, §6.2).
 
@@ -55,18 +69,7 @@ def downward_gradient(z: np.ndarray, grid: Grid, boundary: str = "open") -> tupl
     z = np.asarray(z, dtype=np.float64)
     out = []
     for axis, step in ((1, grid.dx), (0, grid.dy)):
-        if boundary == "periodic":
-            fwd = np.roll(z, -1, axis=axis) - z
-            bwd = z - np.roll(z, 1, axis=axis)
-        elif boundary == "open":
-            edge = np.diff(z, axis=axis)
-            pad = [(0, 0), (0, 0)]
-            pad[axis] = (0, 1)
-            fwd = np.pad(edge, pad, constant_values=np.inf)  # +inf: no neighbour, never lower
-            pad[axis] = (1, 0)
-            bwd = np.pad(edge, pad, constant_values=-np.inf)
-        else:
-            raise ValueError(f"boundary must be 'periodic' or 'open', got {boundary!r}")
+        fwd, bwd = _differences(z, axis, boundary, np.inf)  # no neighbour: never lower
         drop_fwd, drop_bwd = -fwd, bwd  # descent towards i+1 and towards i−1 (m)
         g = np.where(drop_fwd >= drop_bwd, fwd, bwd)
         out.append(np.where(np.maximum(drop_fwd, drop_bwd) > 0, g, 0.0) / step)
@@ -91,14 +94,7 @@ def slope_along(z: np.ndarray, ub: np.ndarray, vb: np.ndarray, grid: Grid,
     speed = np.hypot(ub, vb)
     total = np.zeros(z.shape)
     for axis, velocity, size in ((1, ub, grid.dx), (0, vb, grid.dy)):
-        if boundary == "periodic":
-            ahead, behind = np.roll(z, -1, axis=axis) - z, z - np.roll(z, 1, axis=axis)
-        elif boundary == "open":
-            edge = np.diff(z, axis=axis)
-            ahead = np.pad(edge, [(0, 1) if a == axis else (0, 0) for a in (0, 1)])
-            behind = np.pad(edge, [(1, 0) if a == axis else (0, 0) for a in (0, 1)])
-        else:
-            raise ValueError(f"boundary must be 'periodic' or 'open', got {boundary!r}")
+        ahead, behind = _differences(z, axis, boundary, 0.0)
         total += np.where(velocity >= 0, ahead, behind) * velocity / size
     return np.divide(total, speed, out=np.zeros(z.shape), where=speed > 0)
 
