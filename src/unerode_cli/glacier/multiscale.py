@@ -88,6 +88,16 @@ it by tens of per cent. Both step lengths are far from the explicit rate, the re
 The 50-year step's shortfall is under the ice: +0.11 km³ against +0.32 km³ more than 3 cells
 inside the margins, +0.14 against +0.26 km³ within them, while it spreads more ice onto the 3
 cells outside them (+0.125 against +0.036 km³).
+Also tried: a linearly implicit step in place of this scheme, (I + dt·J)·ΔH = dt·T with J the
+flux's response to the surface taken from the solved face fluxes, as a diffusion (n·F_f/Δs; with
+F_f/Δs the Halfar dome diverged in steps of 15 y) plus an upwind advection ((n + 2)·ū_f/Δx;
+without it the Fig. 6 peaks diverged too), bounds of the shallow-ice Jacobian. It follows the Halfar dome
+within 1 % in steps of 15 y and stays stable in one step of 150 y, but on the Fig. 6 peaks (thin
+ice on 20–35° slopes) it piled ice up where steep fast ice fed slow thin ice — a cell without
+outflow gets none from the linearisation — and diverged within five 50-year steps from no ice;
+with rejected steps taken again it ran, but its 50-year steps held 45 % more ice than its
+10-year steps at 5.7 ky (4.8 against 3.3 km³), and on the grooved slab of
+``tests/glacier/test_glacier_coupled_cfl.py`` one 50-year step raised a cell by 1.7 km.
 
 Starting from no ice, the first step lays dt·M at once (still ice: δt = dt), and the edge this
 leaves at the equilibrium line is steep: on the ice cap of the tests, with SIA velocities, a start
