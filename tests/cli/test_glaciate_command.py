@@ -111,6 +111,22 @@ def test_blatter_run_writes_the_velocities_of_the_final_geometry(tmp_path: Path)
     assert stats["final_flow"]["residual"] <= 0.03 and stats["unconverged_solves"] == 0
 
 
+@pytest.mark.parametrize(("cfl", "noted"), [(None, True), (0.05, False)])
+def test_ice_over_a_kilometre_thick_gets_a_note_on_the_cfl_number(tmp_path: Path, cfl, noted) -> None:
+    """At 001's c = 0.1 one-cell grooves under ice this thick grew into divergences (the Fig. 6 ice
+    sheet, the Grindelwald cycle): the run says so once, and says nothing at 0.05."""
+    bed = valley(10, 12, 250.0, base=1000.0, head=200.0, scale=2000.0)
+    dem = write_geotiff(tmp_path / "bed.tif", bed.astype(np.float32), _transform(250.0))
+    ice = write_geotiff(tmp_path / "ice.tif", np.full(bed.shape, 1100.0, np.float32), _transform(250.0))
+    options = () if cfl is None else ("--transport-cfl", cfl)
+    result = run_cli("glaciate", dem, tmp_path / "out.tif", "--ela", 1500, "--duration", 20, "--dt", 10,
+                     "--layers", 5, "--ice-thickness", ice, "--no-hillslope", "--no-debris", "--no-fluvial",
+                     *options)
+    assert result.returncode == 0, result.stderr
+    assert ("--transport-cfl 0.1 can grow one-cell grooves" in result.stderr) is noted, result.stderr
+    assert result.stderr.count("m thick at t = ") == int(noted)
+
+
 @pytest.mark.slow
 def test_the_transport_cfl_reaches_the_multiscale_step(tmp_path: Path) -> None:
     """--transport-cfl is recorded in the sidecar and changes the multi-scale steps where the ice

@@ -76,6 +76,12 @@ ELA_SPEC = next(s for s in massbalance.PARAMETERS if s.name == "ela")
 SLIDING_SPEC = next(s for s in blatter.PARAMETERS if s.name == "sliding_c")
 #: The diagnostic solve: blatter.solve's own convergence threshold, and a generous iteration cap.
 DIAGNOSTIC_RTOL = 1e-5
+#: Ice thicker than this (m) under the multi-scale transport at a CFL number above
+#: ``THICK_ICE_CFL`` gets a note: one-cell grooves in the surface of ice this thick grew into a
+#: divergence at 001's c = 0.1 (001 Fig. 6's ice sheet of up to 1.3 km at 250 m cells; the
+#: Grindelwald cycle under 2–2.5 km at 92 m), and 0.05 kept both down (``coupled._multiscale_cfl``).
+THICK_ICE_M = 1000.0
+THICK_ICE_CFL = 0.05
 DIAGNOSTIC_MAX_ITER = 20000
 
 
@@ -468,10 +474,13 @@ def run_job(prepared: PreparedGlacierJob, on_step=None, on_note=None) -> str:
         surface_guard = DivergenceGuard(terrain.elevation + prepared.thickness,
                                         uplift_rate=max_rate(prepared.params.p_max), hint=hint)
 
+        thick_note = _ThickIceNote(prepared.params, on_note)
+
         def check(new: coupled.GlacierState, report: coupled.StepReport, k: int) -> None:
             where = f"in step {k} (t = {new.time:g} y)"
             bed_guard.check(new.bed, new.time, where)
             surface_guard.check(new.bed + new.thickness, new.time, where)
+            thick_note.check(new)
             if job.timeline is not None:
                 timeline.append(_timeline_row(prepared, new, report, ice_free,
                                               outlets if ice_free is None else ice_free.base_level))
@@ -587,6 +596,25 @@ def _checkpoint(prepared: PreparedGlacierJob, result: coupled.RunResult, timelin
                      totals=json.dumps({**totals, "seconds": result.seconds, "wall": wall}),
                      timeline=json.dumps(timeline), snapshots=json.dumps([str(p) for p in snapshots]),
                      ice_free=json.dumps(free), **arrays)
+
+
+class _ThickIceNote:
+    """Tells the user once when the ice grows thicker than ``THICK_ICE_M`` under a multi-scale CFL
+    number above ``THICK_ICE_CFL``."""
+
+    def __init__(self, params: coupled.CoupledParams, on_note) -> None:
+        self.on_note = on_note
+        self.cfl = params.multiscale_cfl
+        self.pending = (on_note is not None and params.transport == "multiscale"
+                        and params.multiscale_cfl > THICK_ICE_CFL)
+
+    def check(self, state: coupled.GlacierState) -> None:
+        thickest = float(state.thickness.max()) if self.pending else 0.0
+        if thickest > THICK_ICE_M:
+            self.pending = False
+            self.on_note(f"note: the ice is {thickest:.0f} m thick at t = {state.time:g} y; under ice this "
+                         f"thick --transport-cfl {self.cfl:g} can grow one-cell grooves in its surface until "
+                         f"the run diverges (an ice sheet, a glacial maximum): {THICK_ICE_CFL:g} keeps them down.")
 
 
 def _resume(prepared: PreparedGlacierJob, ice_free: cycle.IceFreeErosion | None, on_note) -> _Resumed | None:
