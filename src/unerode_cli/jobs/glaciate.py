@@ -613,8 +613,9 @@ class _ThickIceNote:
         if thickest > THICK_ICE_M:
             self.pending = False
             self.on_note(f"note: the ice is {thickest:.0f} m thick at t = {state.time:g} y; under ice this "
-                         f"thick --transport-cfl {self.cfl:g} can grow one-cell grooves in its surface until "
-                         f"the run diverges (an ice sheet, a glacial maximum): {THICK_ICE_CFL:g} keeps them down.")
+                         f"thick --transport-cfl {self.cfl:g} can grow one-cell grooves in its surface "
+                         f"until the run diverges (an ice sheet, a glacial maximum): {THICK_ICE_CFL:g} "
+                         "keeps them down.")
 
 
 def _resume(prepared: PreparedGlacierJob, ice_free: cycle.IceFreeErosion | None, on_note) -> _Resumed | None:
