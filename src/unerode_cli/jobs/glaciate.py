@@ -76,13 +76,13 @@ ELA_SPEC = next(s for s in massbalance.PARAMETERS if s.name == "ela")
 SLIDING_SPEC = next(s for s in blatter.PARAMETERS if s.name == "sliding_c")
 #: The diagnostic solve: blatter.solve's own convergence threshold, and a generous iteration cap.
 DIAGNOSTIC_RTOL = 1e-5
+DIAGNOSTIC_MAX_ITER = 20000
 #: Ice thicker than this (m) under the multi-scale transport at a CFL number above
 #: ``THICK_ICE_CFL`` gets a note: one-cell grooves in the surface of ice this thick grew into a
 #: divergence at 001's c = 0.1 (001 Fig. 6's ice sheet of up to 1.3 km at 250 m cells; the
 #: Grindelwald cycle under 2–2.5 km at 92 m), and 0.05 kept both down (``coupled._multiscale_cfl``).
 THICK_ICE_M = 1000.0
 THICK_ICE_CFL = 0.05
-DIAGNOSTIC_MAX_ITER = 20000
 
 
 @dataclass(frozen=True)
