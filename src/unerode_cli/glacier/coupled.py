@@ -444,7 +444,7 @@ def step(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, dt: f
         if params.transport == "multiscale":
             h_new = multiscale.step(h, *flow.mean, _mass_balance(state, grid, params, ela), grid, dt,
                                     params.boundary, c=_multiscale_cfl(flow, grid, params.multiscale_cfl))
-            change = (dt * _erosion_rate(state.bed, h, flow, grid, params) if params.erosion else 0.0)
+            change = dt * _erosion_rate(state.bed, h, flow, grid, params) if params.erosion else 0.0
         else:
             h_new, change, substeps = _explicit(state, flow, grid, params, ela, dt)
         h_new = np.where(valid, h_new, 0.0)

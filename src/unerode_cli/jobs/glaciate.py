@@ -609,7 +609,9 @@ class _ThickIceNote:
                         and params.multiscale_cfl > THICK_ICE_CFL)
 
     def check(self, state: coupled.GlacierState) -> None:
-        thickest = float(state.thickness.max()) if self.pending else 0.0
+        if not self.pending:
+            return
+        thickest = float(state.thickness.max())
         if thickest > THICK_ICE_M:
             self.pending = False
             self.on_note(f"note: the ice is {thickest:.0f} m thick at t = {state.time:g} y; under ice this "
