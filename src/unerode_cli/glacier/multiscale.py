@@ -65,7 +65,8 @@ Time accuracy: where δt < dt the step takes in only min(f^i·δt_i, dt)/dt of t
 accumulation included — so fast ice follows a changing climate late. On the 001 Fig. 6 glaciation
 (256² of 250 m, the ELA falling 18 m per ky, c = 0.05) the ice volume of dt = 50 y lags that of
 dt = 10 y by 9–11 % from 5 to 50 ky and by 56 % at 70 ky, as the ice sheet forms (555 against
-1252 km³; 562 with one L-BFGS iteration before and after the finest level's coarse correction); dt = 20 y lags by 3–5 % up to 30 ky. 001 Fig. 11 reports ~1 % for 10–20 y (with c = 0.1)
+1252 km³; 562 with one L-BFGS iteration before and after the finest level's coarse correction);
+dt = 20 y lags by 3–5 % up to 30 ky. 001 Fig. 11 reports ~1 % for 10–20 y (with c = 0.1)
 on valley glaciers, and valley glaciers keep to it here: on a 128² crop of Grindelwald (46 m cells,
 the ELA falling from 3300 to 2300 m over 70 ky, c = 0.1) dt = 20, 50 and 100 y stay within 2.1 %
 of dt = 10 y in 2-ky means from 10 to 70 ky, though the volume swings by ±4 % every 500–800 y
