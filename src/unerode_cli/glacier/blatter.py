@@ -445,11 +445,12 @@ class _Multigrid:
 
     L-BFGS converges slowly on the long waves of the velocity (the column preconditioner leaves
     the horizontal stresses out, and they couple the whole glacier). A cycle on level l: L-BFGS
-    iterations (MG_PRE), then the coarse model E_c(y) − vᵀy, whose gradient at the injected
-    velocities y₀ equals Pᵀ of this level's gradient (v = ∇E_c(y₀) − Pᵀ∇E_l(x)), is minimised by a
-    cycle on level l + 1 (L-BFGS alone on the coarsest), its change prolonged (P: bilinear) and
-    taken as a search direction on level l (the line search of ``_line_search``), then MG_POST
-    iterations. Every level keeps its L-BFGS pairs across cycles."""
+    iterations (MG_PRE; MG_FINE_PRE on the finest level of MG_FINE_LEVELS levels or more), then
+    the coarse model E_c(y) − vᵀy, whose gradient at the injected velocities y₀ equals Pᵀ of this
+    level's gradient (v = ∇E_c(y₀) − Pᵀ∇E_l(x)), is minimised by a cycle on level l + 1 (L-BFGS
+    alone on the coarsest), its change prolonged (P: bilinear) and taken as a search direction on
+    level l (the line search of ``_line_search``), then MG_POST (MG_FINE_POST) iterations. Every
+    level keeps its L-BFGS pairs across cycles."""
 
     def __init__(self, levels: list[_Level], drive: float, rtol: float) -> None:
         self.levels, self.drive, self.rtol = levels, drive, rtol
@@ -501,8 +502,8 @@ class _Multigrid:
         try:
             if index == len(self.levels) - 1:
                 return self._smooth(index, obj, x, g, MG_COARSE)
-            fine_only = index == 0 and len(self.levels) >= MG_FINE_LEVELS
-            pre, post = (MG_FINE_PRE, MG_FINE_POST) if fine_only else (MG_PRE, MG_POST)
+            shortened = index == 0 and len(self.levels) >= MG_FINE_LEVELS
+            pre, post = (MG_FINE_PRE, MG_FINE_POST) if shortened else (MG_PRE, MG_POST)
             x, g = self._smooth(index, obj, x, g, min(pre, budget))
             done = _norm(g) / self.drive <= self.rtol or self.iterations >= budget
             if index == 0 and done:
