@@ -327,8 +327,11 @@ def level_weights(delta_t: np.ndarray, dt: float, f: float, levels: int,
     faces, took 634 m of ice in one step (w_0 = 50 y, w_1 = 6.5 y, T_1 = −12 m/y) and the run
     diverged 10 steps later. The running maximum keeps every weight at or below 001's
     (max_{j≤i} f^j·δt_j ≤ f^i·δt)."""
-    weights = [np.minimum(f**i * step, dt) for i, step in enumerate(smoothed_dt(delta_t, levels, boundary))]
-    return list(np.maximum.accumulate(np.stack(weights), axis=0))
+    weights = []
+    for i, step in enumerate(smoothed_dt(delta_t, levels, boundary)):
+        level = np.minimum(f**i * step, dt)
+        weights.append(level if not weights else np.maximum(weights[-1], level))
+    return weights
 
 
 def smoothed_dt(delta_t: np.ndarray, levels: int, boundary: str = "closed") -> list[np.ndarray]:

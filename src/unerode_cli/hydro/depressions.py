@@ -159,8 +159,8 @@ def lake_labels(depth: np.ndarray, min_depth: float = MIN_LAKE_DEPTH) -> tuple[n
     labels, found = ndimage.label(wet, structure=np.ones((3, 3), dtype=bool))
     if found == 0:
         return labels.astype(np.int32), 0
-    deepest = ndimage.maximum(depth, labels, index=np.arange(1, found + 1))
-    keep = np.asarray(deepest) > min_depth
+    # a lake's deepest cell is deeper than min_depth where any of its cells is (a count, not a sort)
+    keep = np.bincount(labels[depth > min_depth], minlength=found + 1)[1:] > 0
     number = np.zeros(found + 1, dtype=np.int32)
     number[1:][keep] = np.arange(1, int(keep.sum()) + 1, dtype=np.int32)
     return number[labels], int(keep.sum())
