@@ -13,7 +13,8 @@ Velocities on the collapsed levels of a column equal the velocity of the highest
 is not collapsed (001: "we set the velocities stored at the endpoints of the vertical edge to
 be equal"); this is done by giving them the same degree of freedom (``dof_map``).
 
-Pure NumPy (no numba): it is cheap and vectorised.
+The elevations and the degrees of freedom are built by numba kernels (``lattice_kernels``,
+imported when first used), one pass over the nodes each.
 """
 
 from __future__ import annotations
@@ -40,12 +41,12 @@ def layer_elevations(bed: np.ndarray, thickness: np.ndarray, n_layers: int, dz_m
     h = np.asarray(thickness, dtype=np.float64)
     if np.any(h < 0):
         raise ValueError("the ice thickness must be ≥ 0")
-    k = np.arange(n_layers + 1, dtype=np.float64)[:, None, None]
-    even = k * (h / n_layers)
-    thin = np.minimum(k * dz_min, h)
-    zeta = b + np.where(h >= n_layers * dz_min, even, thin)
-    zeta[-1] = b + h  # exact surface, whatever the rounding of k·H/N
-    return zeta
+    if b.shape != h.shape or b.ndim != 2:
+        raise ValueError(f"bed and thickness must be 2-D of one shape, got {b.shape} and {h.shape}")
+    from unerode_cli.glacier import lattice_kernels
+
+    # ζ_N = b + H exactly, whatever the rounding of N·(H/N)
+    return lattice_kernels.layer_elevations(b, h, int(n_layers), float(dz_min))
 
 
 def ice_columns_with_halo(thickness: np.ndarray, periodic: bool) -> np.ndarray:
@@ -82,11 +83,9 @@ def dof_map(zeta: np.ndarray, active: np.ndarray, frozen: np.ndarray) -> tuple[n
         (dof int64[N + 1, ny, nx], number of degrees of freedom). Nodes above the last
         non-collapsed level m of a column share the degree of freedom of level m.
     """
-    nz = zeta.shape[0]
-    m = np.count_nonzero(np.diff(zeta, axis=0) > 0, axis=0)  # non-collapsed layers per column
-    k = np.arange(nz)[:, None, None]
-    free = active[None] & (k <= m[None]) & ~(frozen[None] & (k == 0))
-    ids = np.cumsum(free.ravel()).reshape(free.shape) - 1
-    rep_ids = np.where(free, ids, -1)
-    dof = np.take_along_axis(rep_ids, np.minimum(k, m[None]), axis=0)
-    return np.ascontiguousarray(dof, dtype=np.int64), int(free.sum())
+    from unerode_cli.glacier import lattice_kernels
+
+    dof, count = lattice_kernels.dof_map(np.ascontiguousarray(zeta, dtype=np.float64),
+                                         np.asarray(active, dtype=np.bool_),
+                                         np.asarray(frozen, dtype=np.bool_))
+    return dof, int(count)
