@@ -45,8 +45,9 @@ def layer_elevations(bed: np.ndarray, thickness: np.ndarray, n_layers: int, dz_m
         raise ValueError(f"bed and thickness must be 2-D of one shape, got {b.shape} and {h.shape}")
     from unerode_cli.glacier import lattice_kernels
 
-    # ζ_N = b + H exactly, whatever the rounding of N·(H/N)
-    return lattice_kernels.layer_elevations(b, h, int(n_layers), float(dz_min))
+    # contiguous: the strided samples of the multigrid's coarse levels take the same compiled kernel
+    return lattice_kernels.layer_elevations(np.ascontiguousarray(b), np.ascontiguousarray(h),
+                                            int(n_layers), float(dz_min))
 
 
 def ice_columns_with_halo(thickness: np.ndarray, periodic: bool) -> np.ndarray:

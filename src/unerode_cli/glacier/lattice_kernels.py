@@ -15,7 +15,7 @@ import numpy as np
 @numba.njit(cache=True)
 def layer_elevations(bed, thickness, n_layers, dz_min):
     """ζ float64[N + 1, ny, nx] (m): b + k·(H/N) where H ≥ N·dz_min, else b + min(k·dz_min, H);
-    ζ[N] = b + H (``lattice.layer_elevations``)."""
+    ζ[N] = b + H exactly, whatever the rounding of N·(H/N) (``lattice.layer_elevations``)."""
     ny, nx = bed.shape
     full = n_layers * dz_min
     zeta = np.empty((n_layers + 1, ny, nx))

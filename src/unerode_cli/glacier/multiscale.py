@@ -141,6 +141,7 @@ nor scipy.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -327,11 +328,8 @@ def level_weights(delta_t: np.ndarray, dt: float, f: float, levels: int,
     faces, took 634 m of ice in one step (w_0 = 50 y, w_1 = 6.5 y, T_1 = −12 m/y) and the run
     diverged 10 steps later. The running maximum keeps every weight at or below 001's
     (max_{j≤i} f^j·δt_j ≤ f^i·δt)."""
-    weights = []
-    for i, step in enumerate(smoothed_dt(delta_t, levels, boundary)):
-        level = np.minimum(f**i * step, dt)
-        weights.append(level if not weights else np.maximum(weights[-1], level))
-    return weights
+    weights = (np.minimum(f**i * step, dt) for i, step in enumerate(smoothed_dt(delta_t, levels, boundary)))
+    return list(itertools.accumulate(weights, np.maximum))
 
 
 def smoothed_dt(delta_t: np.ndarray, levels: int, boundary: str = "closed") -> list[np.ndarray]:
