@@ -9,7 +9,15 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from unerode_cli.cli import glaciate as glaciate_cli
-from unerode_cli.cli.erode import PARAMETER_PANELS, Inflow, Scheme
+from unerode_cli.jobs.erode.options import INFLOW, PARAMETER_PANELS
+
+
+class Scheme(str, Enum):
+    limiter = "limiter"
+    upwind = "upwind"
+
+
+Inflow = Annotated[Path | None, typer.Option("--inflow", help=INFLOW.help, rich_help_panel=INFLOW.panel)]
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
     BOUNDARY_PANEL,

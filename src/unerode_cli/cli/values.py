@@ -9,9 +9,7 @@ parser's ``parse(value)`` returns the value or raises ValueError with the end of
 
 from __future__ import annotations
 
-import math
 import sys
-from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,7 +17,8 @@ import typer
 from typer.core import TyperCommand
 
 from unerode_cli.cli.errors import EXIT_BAD_INPUT
-from unerode_cli.processes.parameters import ParamSpec
+from unerode_cli.run import values
+from unerode_cli.run.values import OptionParser, finite_number, unit_suffix  # noqa: F401
 
 
 class Command(TyperCommand):
@@ -34,93 +33,39 @@ class Command(TyperCommand):
             raise typer.Exit(EXIT_BAD_INPUT) from None
 
 
-class OptionParser(ABC):
-    """A parser of one option's value: :meth:`parse` for the pipeline, calling it for typer."""
-
-    @abstractmethod
-    def parse(self, value: Any) -> Any:
-        """The value of the option's text ``value``; ValueError (end of a sentence) when bad."""
+class TyperParser:
+    """Mixin: calling the parser, as typer does, turns its ValueError into a BadParameter that
+    names the option (reported by :class:`Command`)."""
 
     def __call__(self, value: Any) -> Any:
         try:
-            return self.parse(value)
+            return self.parse(value)  # type: ignore[attr-defined]
         except ValueError as exc:
             raise typer.BadParameter(str(exc)) from None
 
 
-def unit_suffix(unit: str) -> str:
-    """`` m/y`` after a number, nothing for a dimensionless value ("" or "1")."""
-    return "" if unit in ("", "1") else f" {unit}"
+def for_typer(parser: OptionParser) -> Any:
+    """``parser`` as a typer ``parser=`` callable."""
 
-
-def finite_number(value: Any, unit: str = "") -> float:
-    """``value`` as a finite float (``unit`` names its unit in the message)."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"expected a number{_in(unit)}, got '{value}'") from None
-    if not math.isfinite(number):
-        raise ValueError(f"must be a finite number{_in(unit)}, got '{value}'")
-    return number
-
-
-def _in(unit: str) -> str:
-    return f" ({unit})" if unit_suffix(unit) else ""
-
-
-@dataclass(frozen=True)
-class Number(OptionParser):
-    """A finite number in ``unit`` ("" when dimensionless), ≥ ``minimum`` (> with ``above``)
-    and ≤ ``maximum`` when they are given."""
-
-    unit: str = ""
-    minimum: float | None = None
-    maximum: float | None = None
-    above: bool = False
-
-    def parse(self, value: Any) -> float:
-        number = finite_number(value, self.unit)
-        if self.minimum is not None and (number < self.minimum or self.above and number == self.minimum):
-            relation = ">" if self.above else "≥"
-            raise ValueError(f"must be {relation} {self.minimum:g}{unit_suffix(self.unit)}, got {value}")
-        if self.maximum is not None and number > self.maximum:
-            raise ValueError(f"must be ≤ {self.maximum:g}{unit_suffix(self.unit)}, got {value}")
-        return number
-
-
-@dataclass(frozen=True)
-class Numbers(OptionParser):
-    """Comma-separated finite numbers, ``count`` of them when given (else at least one);
-    ``expected`` says what they are in messages, e.g. "SLOPE,INTERCEPT"."""
-
-    expected: str
-    count: int | None = None
-
-    def parse(self, value: Any) -> tuple[float, ...]:
-        parts = [part.strip() for part in str(value).split(",") if part.strip()]
+    def parse(value: Any) -> Any:
         try:
-            numbers = tuple(finite_number(part) for part in parts)
-        except ValueError:
-            numbers = ()
-        if not numbers or (self.count is not None and len(numbers) != self.count):
-            raise ValueError(f"expected {self.expected}, got '{value}'")
-        return numbers
+            return parser.parse(value)
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc)) from None
+
+    return parse
 
 
 @dataclass(frozen=True)
-class ParameterValue(OptionParser):
-    """A process parameter's text: a number checked against its declaration, or, where the
-    declaration allows a raster, a path (kept as text, read when the job plans)."""
+class Number(TyperParser, values.Number):
+    """:class:`unerode_cli.run.values.Number` for typer."""
 
-    spec: ParamSpec
 
-    def parse(self, value: Any) -> str:
-        text = str(value)
-        try:
-            number = float(text)
-        except ValueError:
-            if self.spec.raster:
-                return text
-            raise ValueError(f"expected a number, got '{text}'") from None
-        self.spec.check(number)
-        return text
+@dataclass(frozen=True)
+class Numbers(TyperParser, values.Numbers):
+    """:class:`unerode_cli.run.values.Numbers` for typer."""
+
+
+@dataclass(frozen=True)
+class ParameterValue(TyperParser, values.ParameterValue):
+    """:class:`unerode_cli.run.values.ParameterValue` for typer."""

@@ -3,26 +3,28 @@
 from __future__ import annotations
 
 import json
-import sys
+import shlex
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 from unerode_cli import __version__
 from unerode_cli.io.json_files import jsonable, to_json, write_json
+from unerode_cli.io.paths import active_plan
 from unerode_cli.io.terrain import Terrain
 
 HISTORY_TAG = "UNERODE_HISTORY"
 
 
 def history_entry(command: str, parameters: dict[str, Any], seed: int | None = None) -> dict[str, Any]:
-    """One processing step: command, version, parameters, seed, command line and UTC time."""
+    """One processing step: command, version, parameters, seed, the job's equivalent command
+    line (from its declared options, see the active output plan) and UTC time."""
     return {
         "command": command,
         "version": __version__,
         "parameters": jsonable(parameters),
         "seed": seed,
-        "argv": sys.argv,
+        "command_line": shlex.join(["unerode-cli", *active_plan().command_line]),
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
 

@@ -1,22 +1,25 @@
-"""An `erode` / `unerode` job: plan (check everything, read inputs) then run and write."""
+"""The `erode` / `unerode` job: plan (check everything, read inputs), run on arrays, write."""
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from unerode_cli.errors import InputError
+from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
-from unerode_cli.processes import thermal
+from unerode_cli.jobs.erode.options import OPTIONS
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import boundaries_from_options
+from unerode_cli.run.declare import declared
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
+from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import (
     TIME_TAG,
     Outputs,
@@ -38,40 +41,31 @@ from unerode_cli.run.registry import (
 from unerode_cli.run.runner import Process, RunReport, run
 
 
-@dataclass(frozen=True)
-class ErosionJob:
-    """What the user asked for (times in years, always positive; ``backward`` flips dt)."""
+@declared("erode", OPTIONS)
+class ErosionJob(Job):
+    """Run surface processes forward in time (times in years, always positive)."""
 
-    backward: bool
-    source: Path
-    output: Path
-    process: str = "fluvial"
-    dt: float = 1000.0
-    duration: float | None = None
-    steps: int | None = None
-    allow_substeps: bool = True
-    snapshot_every: float | None = None
-    change_map: Path | None = None
-    scheme: str = "limiter"
-    method: str = "mfd"
-    outlets: str = "all"
-    sea_level: float | None = None
-    dirichlet: Path | None = None
-    band: int | None = None
-    channel: str | None = None
-    dtype: str = "float32"
-    cog: bool = False
-    co: list[str] | None = None
-    overwrite: bool = False
-    preview: Path | None = None
-    parameter_values: dict[str, str | None] = field(default_factory=dict)
-    params_file: Path | None = None
-    constraints: str = ",".join(thermal.CONSTRAINTS)
-    inflow: Path | None = None
+    backward: ClassVar[bool] = False
 
     @property
     def command(self) -> str:
-        return "unerode" if self.backward else "erode"
+        return self.COMMAND
+
+    def plan(self, outputs: OutputPlan) -> PreparedJob:
+        return plan(self, outputs)
+
+    def run(self, planned: PreparedJob, progress: Progress) -> tuple[PreparedJob, ErosionResult]:
+        return planned, run_steps(planned, progress)
+
+    def write(self, result: tuple[PreparedJob, ErosionResult], outputs: OutputPlan) -> str:
+        return write_result(*result)
+
+
+@declared("unerode", OPTIONS)
+class UnerosionJob(ErosionJob):
+    """Run surface processes backward in time (000 §3.2): the same options, dt reversed."""
+
+    backward: ClassVar[bool] = True
 
 
 @dataclass
@@ -91,6 +85,16 @@ class PreparedJob:
     @property
     def signed_dt(self) -> float:
         return -self.dt if self.job.backward else self.dt
+
+
+@dataclass
+class ErosionResult:
+    """The final elevation (m), the run's report, the snapshots written and the wall time (s)."""
+
+    elevation: np.ndarray
+    report: RunReport
+    snapshots: list[Path]
+    wall_s: float
 
 
 def step_count(dt: float, duration: float | None, steps: int | None) -> int:
@@ -117,7 +121,7 @@ def change_preview_path(change_map: Path) -> Path:
     return change_map.with_suffix(".png")
 
 
-def plan(job: ErosionJob) -> PreparedJob:
+def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob:
     """Check the whole job before any work: options, outputs, inputs, parameters, boundaries."""
     names = parse_process_list(job.process, job.backward)
     steps = step_count(job.dt, job.duration, job.steps)
@@ -128,6 +132,10 @@ def plan(job: ErosionJob) -> PreparedJob:
         if not (job.snapshot_every > 0 and whole):
             raise InputError("--snapshot-every must be a positive whole multiple of --dt (years).")
         stride = max(1, round(stride_f))
+    if plan_outputs is not None:
+        for path in (job.source, job.params, job.dirichlet, job.inflow):
+            if path is not None:
+                plan_outputs.read(path)
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, job.overwrite, job.preview)
     outputs.check(job.source)
     rasters = [job.change_map] if job.change_map else []
@@ -140,9 +148,9 @@ def plan(job: ErosionJob) -> PreparedJob:
     terrain.check_valid(job.source)
     outputs.check_source(terrain, job.source)
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
-    given = given_values(job.params_file, job.parameter_values, names)
+    given = given_values(job.params, job.parameter_values(), names)
     options = {"scheme": job.scheme, "method": job.method,
-               "constraints": thermal_constraints(job.constraints),
+               "constraints": thermal_constraints(job.thermal_constraints),
                "inflow": inflow_for(job.inflow, names, terrain, bounds)}
     values: dict[str, Any] = {}
     parameters: dict[str, Any] = {}
@@ -156,11 +164,12 @@ def plan(job: ErosionJob) -> PreparedJob:
     return PreparedJob(job, terrain, processes, parameters, job.dt, steps, stride, outputs, uplift)
 
 
-def run_job(prepared: PreparedJob, on_step=None, on_note=None) -> str:
-    """Run, write the outputs, and return a one-line summary."""
+def run_steps(prepared: PreparedJob, progress: Progress) -> ErosionResult:
+    """The time steps, on arrays (numbered snapshots are written as they are reached)."""
     job, terrain = prepared.job, prepared.terrain
     start = time.perf_counter()
     snapshots: list[Path] = []
+    progress.start(prepared.steps, job.command)
 
     def after_step(i: int, h: np.ndarray) -> None:
         if prepared.snapshot_stride and i % prepared.snapshot_stride == 0:
@@ -170,17 +179,22 @@ def run_job(prepared: PreparedJob, on_step=None, on_note=None) -> str:
             save(snap, Outputs(path, prepared.outputs.options, job.overwrite), job.command,
                  _provenance(prepared), {"time_years": i * prepared.signed_dt})
             snapshots.append(path)
-        if on_step is not None:
-            on_step(f"t = {i * prepared.signed_dt:+.6g} y")
+        progress.advance(f"t = {i * prepared.signed_dt:+.6g} y")
 
     guard = DivergenceGuard(terrain.elevation, max_rate(prepared.uplift))
     h, report = run(terrain.elevation, prepared.processes, prepared.signed_dt, prepared.steps,
-                    job.allow_substeps, after_step, on_note, guard)
-    result = terrain.with_elevation(h)
-    result.tags[TIME_TAG] = repr(report.elapsed_years)
-    change = process_change(terrain, h, prepared, report)
-    stats = _statistics(report, change, time.perf_counter() - start, snapshots)
-    save(result, prepared.outputs, job.command, _provenance(prepared), stats)
+                    not job.no_substep, after_step, progress.note, guard)
+    return ErosionResult(h, report, snapshots, time.perf_counter() - start)
+
+
+def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
+    """Write the eroded DEM, the change map and their previews; the one-line summary."""
+    job, terrain, report = prepared.job, prepared.terrain, result.report
+    output = terrain.with_elevation(result.elevation)
+    output.tags[TIME_TAG] = repr(report.elapsed_years)
+    change = process_change(terrain, result.elevation, prepared, report)
+    stats = _statistics(report, change, result.wall_s, result.snapshots)
+    save(output, prepared.outputs, job.command, _provenance(prepared), stats)
     if job.change_map is not None:
         layer = terrain.with_elevation(change)
         save(layer, Outputs(job.change_map, prepared.outputs.options, job.overwrite),
@@ -203,13 +217,10 @@ def process_change(
 
 
 def _provenance(prepared: PreparedJob) -> dict[str, Any]:
-    job = prepared.job
-    return {"input": job.source, "process": job.process, "dt_years": prepared.dt,
-            "steps": prepared.steps, "direction": "backward" if job.backward else "forward",
-            "scheme": job.scheme, "method": job.method, "outlets": job.outlets,
-            "sea_level": job.sea_level, "dirichlet": job.dirichlet,
-            "allow_substeps": job.allow_substeps, "params_file": job.params_file,
-            "thermal_constraints": job.constraints, "inflow": job.inflow, **prepared.parameters}
+    """The job's recorded options, what the plan derived from them (step length and count,
+    direction) and the value of every parameter of its processes."""
+    return {**prepared.job.provenance(), "dt_years": prepared.dt, "steps": prepared.steps,
+            "direction": "backward" if prepared.job.backward else "forward", **prepared.parameters}
 
 
 def _statistics(report: RunReport, change: np.ndarray, wall: float,

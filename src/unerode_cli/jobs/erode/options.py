@@ -1,0 +1,69 @@
+"""Options of `erode` and `unerode` (declared once: CLI, pipeline, Python API, provenance)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from unerode_cli.processes import debris, fluvial, hillslope, thermal
+from unerode_cli.run.common_options import (
+    BOUNDARY_PANEL,
+    DIRICHLET,
+    OUTLETS,
+    OUTPUT,
+    POSITIVE_YEARS,
+    RASTER_OUTPUT,
+    READING,
+    SEA_LEVEL,
+    SOURCE,
+)
+from unerode_cli.run.declare import Opt, parameter_options
+
+PARAMETER_PANELS = {
+    "Fluvial parameters (000 §3)": fluvial.PARAMETERS,
+    "Thermal parameters (000 §4; thermal and thermal-ca)": thermal.PARAMETERS,
+    "Hillslope parameters (001 §6.4)": hillslope.PARAMETERS,
+    "Debris-flow parameters (001 Eq. 8)": debris.PARAMETERS,
+}
+
+PROCESS_HELP = ("Process(es), comma-separated, applied in this order within each step (operator "
+                "splitting): fluvial, thermal, thermal-ca (forward only), hillslope (forward only), "
+                "debris (forward only).")
+
+INFLOW = Opt("inflow", Path, None, "CSV of rivers entering the map, columns x,y,discharge_m3_per_y,"
+             "sediment_m3_per_y (DEM's CRS; m³/y): each point is snapped to the nearest valid cell, "
+             "within one cell of the edge or of nodata and not an outlet, where its water joins the "
+             "discharge and its sediment the fluvial sediment flux. climate-run also takes an age_ka "
+             "column: each river's rows at several ages, linear in age.", role="input",
+             panel=BOUNDARY_PANEL)
+METHOD = Opt("method", str, "mfd", "Flow routing: mfd (multiple flow directions) or d8.",
+             choices=("mfd", "d8"))
+PARAMS_FILE = Opt("params", Path, None, "YAML file of parameter values (name or symbol → number or raster "
+                  "path, optionally grouped under process names); command-line values win.", role="input",
+                  record="params_file")
+
+OPTIONS = (
+    SOURCE,
+    OUTPUT,
+    Opt("process", str, "fluvial", PROCESS_HELP),
+    PARAMS_FILE,
+    Opt("dt", float, 1000.0, "Time step (years, > 0; unerode runs it backward).", parser=POSITIVE_YEARS),
+    Opt("duration", float, None, "Simulated time (years); or give --steps.", parser=POSITIVE_YEARS),
+    Opt("steps", int, None, "Number of time steps; or give --duration.", minimum=1),
+    Opt("no_substep", bool, False, "Refuse an unstable --dt instead of sub-stepping it.", kind="flag"),
+    Opt("snapshot_every", float, None, "Write a numbered snapshot OUTPUT_k every this many simulated years.",
+        parser=POSITIVE_YEARS, record=False),
+    Opt("change_map", Path, None, "Write the signed change (m) due to the processes (uplift excluded): "
+        "< 0 erosion, > 0 deposition.", role="output", record=False),
+    Opt("scheme", str, "limiter", "Slope of backward fluvial and thermal steps: limiter (000 Eq. 12) or "
+        "upwind (Eq. 10).", choices=("limiter", "upwind")),
+    Opt("thermal_constraints", str, ",".join(thermal.CONSTRAINTS), "Un-deposition constraints of "
+        "thermal unerosion (000 §4.2): any of slope (Eq. 16), convexity (Eq. 17), rate (max "
+        "un-deposition), or none."),
+    METHOD,
+    OUTLETS,
+    SEA_LEVEL,
+    DIRICHLET,
+    INFLOW,
+    *READING,
+    *RASTER_OUTPUT,
+) + parameter_options(PARAMETER_PANELS)

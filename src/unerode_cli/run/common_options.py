@@ -1,0 +1,82 @@
+"""Declarations of the options that several jobs share (DESIGN §5), with units in their help.
+
+A job takes one of these as it is, or renamed with :func:`renamed` / with another default via
+:func:`with_default`, so that each option's text, unit and bounds are written once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+from unerode_cli.run.declare import Opt
+from unerode_cli.run.values import Number
+
+#: Parsers of kinds of numbers that several options share: a time span (years, > 0) and an
+#: elevation (m).
+POSITIVE_YEARS = Number("years", 0.0, above=True)
+METRES = Number("m")
+
+#: Help panels of the shared options.
+BOUNDARY_PANEL = "Boundaries"
+OUTPUT_PANEL = "Outputs"
+CHECKPOINT_PANEL = "Checkpoints"
+
+
+def renamed(opt: Opt, name: str, **changes: Any) -> Opt:
+    """``opt`` under another field name (the flag follows the name unless given)."""
+    flags = changes.pop("flags", () if not opt.flags or opt.argument else opt.flags)
+    return dataclasses.replace(opt, name=name, flags=flags, **changes)
+
+
+def with_default(opt: Opt, default: Any) -> Opt:
+    """``opt`` with another default value."""
+    return dataclasses.replace(opt, default=default)
+
+
+SOURCE = Opt("source", Path, help="Input heightfield (GeoTIFF, any GDAL raster, or .exr), metres.",
+             argument=True, required=True, role="input", record="input")
+OUTPUT = Opt("output", Path, help="Output heightfield; the format follows the extension (.tif, .exr, ...).",
+             argument=True, required=True, role="output", record=False)
+BAND = Opt("band", int, help="Band to read from a multi-band raster (1-based).", minimum=1, record=False)
+CHANNEL = Opt("channel", str, help="EXR channel to read (default: Y, else R, else the only float channel).",
+              record=False)
+OVERWRITE = Opt("overwrite", bool, False, "Replace an existing output.", kind="flag", panel=OUTPUT_PANEL,
+                record=False)
+DTYPE = Opt("dtype", str, "float32", "Output sample type of GDAL outputs.", choices=("float32", "float64"),
+            panel=OUTPUT_PANEL, record=False)
+COG = Opt("cog", bool, False, "Write a Cloud-Optimized GeoTIFF.", kind="flag", panel=OUTPUT_PANEL, record=False)
+CREATION_OPTIONS = Opt("co", str, None, "GDAL creation option KEY=VALUE (repeatable).", kind="multiple",
+                       panel=OUTPUT_PANEL, record=False)
+PREVIEW = Opt("preview", Path, None, "Also write a hillshade preview PNG of the output.", role="output",
+              panel=OUTPUT_PANEL, record=False)
+SEED = Opt("seed", int, 0, "Random seed (recorded in the output's history).")
+
+#: The raster-output options of most jobs: format, creation options, overwrite and preview.
+RASTER_OUTPUT = (DTYPE, COG, CREATION_OPTIONS, OVERWRITE, PREVIEW)
+#: Reading a band of a multi-band raster or a channel of an EXR.
+READING = (BAND, CHANNEL)
+
+OUTLETS = Opt("outlets", str, "all", "Domain edges that drain out: all, none, or a comma list of N,E,S,W.",
+              panel=BOUNDARY_PANEL)
+SEA_LEVEL = Opt("sea_level", float, None, "Cells at or below this elevation (m) are outlets.",
+                parser=METRES, panel=BOUNDARY_PANEL)
+DIRICHLET = Opt("dirichlet", Path, None,
+                "Raster on the DEM's grid; non-zero cells are fixed-elevation outlet nodes.",
+                role="input", panel=BOUNDARY_PANEL)
+COAST = Opt("coast", str, "none", "Sea edges, whose cells follow sea level: none, all, or a comma list of "
+            "N,E,S,W and nodata (nodata borders).", panel=BOUNDARY_PANEL)
+EDGE_BASE = Opt("edge_base", str, None, "Base level of the other boundary nodes: fixed (keep their "
+                "elevation; the default), uplift (rise with U), coarse (follow the surface of the coarse "
+                "run of --inflow-from; the default with it), or FILE, a CSV table of age_ka, elevation_m "
+                "(move as it does since --from).", panel=BOUNDARY_PANEL)
+
+CHECKPOINT_EVERY = Opt("checkpoint_every", int, 10, "Write a checkpoint (.OUT.checkpoint.npz beside OUT) "
+                       "every this many steps.", minimum=1, panel=CHECKPOINT_PANEL, record=False)
+RESUME = Opt("resume", bool, False, "Continue an interrupted run from its checkpoint (same inputs and "
+             "options).", kind="flag", panel=CHECKPOINT_PANEL, record=False)
+MAX_STEPS = Opt("max_steps", int, None, "Stop after this many steps of this invocation (checkpointed; "
+                "continue with --resume).", minimum=1, panel=CHECKPOINT_PANEL, record=False)
+#: Checkpoint and resume options of the time-stepping jobs.
+CHECKPOINTS = (CHECKPOINT_EVERY, RESUME, MAX_STEPS)

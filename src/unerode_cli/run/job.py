@@ -1,0 +1,115 @@
+"""The one shape of every job, the progress it reports, and the executor that runs it.
+
+A job is a frozen dataclass built once from its declared options (:mod:`unerode_cli.run.declare`)
+by any front door — the command line, a pipeline step, an ensemble member, the Python API —
+and run in three phases by :func:`execute`:
+
+1. ``plan(outputs)``: read and check every input, clear every output on the
+   :class:`~unerode_cli.io.paths.OutputPlan` (exists without ``--overwrite``, is an input,
+   folder, format), estimate memory; no computation. Bad input raises
+   :class:`~unerode_cli.errors.InputError` here, before any work.
+2. ``run(planned, progress)``: the computation, on arrays. Long loops report through
+   ``progress`` and stop early when ``progress.cancelled()`` says so.
+3. ``write(result, outputs)``: the outputs, written atomically through the plan; returns the
+   one-line summary.
+
+A run that fails (:class:`~unerode_cli.errors.RunFailure`) keeps none of the files it wrote.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+from unerode_cli.errors import RunFailure
+from unerode_cli.io.paths import OutputPlan
+from unerode_cli.run.declare import Opt, command_line, provenance
+
+
+class Progress:
+    """What a job says while it runs, and how it learns that it should stop.
+
+    The base class is silent and never cancels: the Python API's and quiet runs' choice.
+    ``verbosity`` follows the command line's ``-v``/``-q`` count (0 by default)."""
+
+    verbosity: int = 0
+
+    def __init__(self, cancel: Callable[[], bool] | None = None, verbosity: int = 0) -> None:
+        self._cancel = cancel
+        self.verbosity = verbosity
+
+    def start(self, total: float, label: str, unit: str = "steps") -> None:
+        """A loop of ``total`` units begins (``unit``: ``steps``, or ``years`` of simulated time)."""
+
+    def advance(self, info: str = "", done: float | None = None) -> None:
+        """One more unit is done (or, with ``done``, that many units in all); ``info`` says
+        what it was (e.g. the time reached, the solver's iterations)."""
+
+    def finish(self) -> None:
+        """The loop has ended (a bar is closed)."""
+
+    def note(self, text: str) -> None:
+        """A note for the user (shown unless ``-q``)."""
+
+    def detail(self, text: str) -> None:
+        """Per-step detail (shown with ``-v``)."""
+
+    def data(self, text: str) -> None:
+        """Data the job prints (``info``'s report): the command line writes it to stdout."""
+
+    def cancelled(self) -> bool:
+        """Whether the job should stop at the end of the current step."""
+        return bool(self._cancel and self._cancel())
+
+
+class Job:
+    """Base of every job (see the module docstring). Subclasses are made dataclasses by
+    :func:`~unerode_cli.run.declare.declared`, which sets ``COMMAND`` and ``OPTIONS``."""
+
+    COMMAND: ClassVar[str]
+    OPTIONS: ClassVar[tuple[Opt, ...]]
+    PARAMETERS: ClassVar[tuple[str, ...]] = ()
+
+    def plan(self, outputs: OutputPlan) -> Any:
+        raise NotImplementedError
+
+    def run(self, planned: Any, progress: Progress) -> Any:
+        return planned
+
+    def write(self, result: Any, outputs: OutputPlan) -> str:
+        return ""
+
+    # What every job derives from its declarations.
+
+    def provenance(self) -> dict[str, Any]:
+        """The recorded options (see :func:`~unerode_cli.run.declare.provenance`)."""
+        return provenance(self)
+
+    def command_line(self) -> list[str]:
+        """The equivalent command line, after ``unerode-cli``."""
+        return command_line(self)
+
+    def parameter_values(self) -> dict[str, str | None]:
+        """The process parameters' texts as given (None where not given)."""
+        return {name: getattr(self, name) for name in self.PARAMETERS}
+
+
+def execute(job: Job, progress: Progress | None = None, outputs: OutputPlan | None = None) -> str:
+    """Plan, run and write ``job`` with ``outputs`` (a new plan by default) active; returns the
+    job's summary. A :class:`RunFailure` removes the files written so far (recorded in
+    ``outputs.removed``) before it propagates; any exception leaves no temporary file."""
+    progress = progress or Progress()
+    outputs = outputs or OutputPlan()
+    with outputs.active():
+        outputs.command_line = job.command_line()
+        try:
+            planned = job.plan(outputs)
+            result = job.run(planned, progress)
+            progress.finish()
+            return job.write(result, outputs)
+        except RunFailure:
+            outputs.discard_written()
+            raise
+        finally:
+            progress.finish()
+            outputs.remove_own_temporaries()
