@@ -9,15 +9,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from unerode_cli.cli import glaciate as glaciate_cli
-from unerode_cli.jobs.erode.options import INFLOW, PARAMETER_PANELS
-
-
-class Scheme(str, Enum):
-    limiter = "limiter"
-    upwind = "upwind"
-
-
-Inflow = Annotated[Path | None, typer.Option("--inflow", help=INFLOW.help, rich_help_panel=INFLOW.panel)]
 from unerode_cli.cli.errors import reported_errors
 from unerode_cli.cli.options import (
     BOUNDARY_PANEL,
@@ -45,6 +36,15 @@ from unerode_cli.cli.options import (
 )
 from unerode_cli.cli.parameter_options import with_parameter_options
 from unerode_cli.cli.values import Number, Numbers
+from unerode_cli.jobs.erode.options import INFLOW, PARAMETER_PANELS
+
+
+class Scheme(str, Enum):
+    limiter = "limiter"
+    upwind = "upwind"
+
+
+Inflow = Annotated[Path | None, typer.Option("--inflow", help=INFLOW.help, rich_help_panel=INFLOW.panel)]
 
 if TYPE_CHECKING:
     from unerode_cli.jobs.climate_run import ClimateJob
