@@ -1,7 +1,7 @@
 """Blatter–Pattyn energy + analytic gradient (001 Eq. 7): one evaluation on an N = 10 lattice.
 
 A rough ice cap (ice on ~70 % of the columns) on a rough inclined bed, open edges, sliding
-σ = 3/2, random velocities; the timed call is ``blatter_kernels.objective`` (expand the
+σ = 3/2, random velocities; the timed call is ``blatter_energy.objective`` (expand the
 unknowns, energy and gradient, restrict), i.e. one iteration's evaluation of the minimiser.
 """
 
@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from harness import benchmark
-from unerode_cli.glacier import blatter, blatter_kernels, coupled
+from unerode_cli.glacier import blatter, blatter_energy, coupled
 from unerode_cli.glacier.lattice import dof_map, ice_columns_with_halo, layer_elevations
 from unerode_cli.grid import Grid
 
@@ -34,8 +34,8 @@ def _energy_case(n: int):
     args = (dof, zeta, c_face, DX, DX, 0.0, params.b, 4.0 / 3.0, 1.5, params.rho * params.gravity,
             params.strain_rate_reg**2, params.sliding_reg**2, False)
     x0 = 20.0 * rng.standard_normal(2 * ndof)
-    work = blatter_kernels.workspace(dof)
-    return (lambda: blatter_kernels.objective(x0, *args, work)), n * n * N_LAYERS, "cells"
+    work = blatter_energy.workspace(dof)
+    return (lambda: blatter_energy.objective(x0, *args, work)), n * n * N_LAYERS, "cells"
 
 
 for _n in SIZES:

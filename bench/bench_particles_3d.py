@@ -36,7 +36,8 @@ from unerode_cli.particles import (
     preset_params,
     run,
 )
-from unerode_cli.volume.sdf import ImplicitField, Surface
+from unerode_cli.volume.sdf_field import ImplicitField
+from unerode_cli.volume.sdf_shapes import Surface
 from unerode_cli.volume.voxels import (
     BinaryVoxels,
     DensityVoxels,

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from unerode_cli.glacier import blatter, blatter_kernels
+from unerode_cli.glacier import blatter, blatter_energy, blatter_preconditioner
 from unerode_cli.glacier.lattice import dof_map, ice_columns_with_halo, layer_elevations
 from unerode_cli.grid import Grid
 from unerode_cli.io.rasters import read_terrain
@@ -37,7 +37,7 @@ def test_gradient_matches_central_differences(periodic):
     u = 30.0 * rng.standard_normal(zeta.shape)
     v = 30.0 * rng.standard_normal(zeta.shape)
     gu, gv = np.empty_like(u), np.empty_like(v)
-    blatter_kernels.energy_gradient(u, v, zeta, c_face, *params, gu, gv)
+    blatter_energy.energy_gradient(u, v, zeta, c_face, *params, gu, gv)
     scratch = np.empty_like(u), np.empty_like(v)
     step = 1e-3  # m/y
     fd = np.empty(2 * u.size)
@@ -46,9 +46,9 @@ def test_gradient_matches_central_differences(periodic):
             flat = field.reshape(-1)
             keep = flat[idx]
             flat[idx] = keep + step
-            e_plus = blatter_kernels.energy_gradient(u, v, zeta, c_face, *params, *scratch)
+            e_plus = blatter_energy.energy_gradient(u, v, zeta, c_face, *params, *scratch)
             flat[idx] = keep - step
-            e_minus = blatter_kernels.energy_gradient(u, v, zeta, c_face, *params, *scratch)
+            e_minus = blatter_energy.energy_gradient(u, v, zeta, c_face, *params, *scratch)
             flat[idx] = keep
             fd[comp * u.size + idx] = (e_plus - e_minus) / (2 * step)
     analytic = np.concatenate([gu.ravel(), gv.ravel()])
@@ -62,16 +62,16 @@ def test_gradient_of_tied_unknowns_matches_central_differences():
     dof, n = dof_map(zeta, ice_columns_with_halo(h, True), frozen)
     assert n < dof.size  # some nodes are tied or held
     x = 30.0 * rng.standard_normal(2 * n)
-    work = blatter_kernels.workspace(dof)
-    _, g = blatter_kernels.objective(x, dof, zeta, c_face, *params, work)
+    work = blatter_energy.workspace(dof)
+    _, g = blatter_energy.objective(x, dof, zeta, c_face, *params, work)
     step = 1e-3
     fd = np.empty_like(x)
     for i in range(x.size):
         xp, xm = x.copy(), x.copy()
         xp[i] += step
         xm[i] -= step
-        fd[i] = (blatter_kernels.objective(xp, dof, zeta, c_face, *params, work)[0]
-                 - blatter_kernels.objective(xm, dof, zeta, c_face, *params, work)[0]) / (2 * step)
+        fd[i] = (blatter_energy.objective(xp, dof, zeta, c_face, *params, work)[0]
+                 - blatter_energy.objective(xm, dof, zeta, c_face, *params, work)[0]) / (2 * step)
     assert np.linalg.norm(fd - g) / np.linalg.norm(g) < 1e-5
 
 
@@ -161,9 +161,9 @@ def test_column_preconditioner_solves_its_tridiagonal_systems():
     dof, n = dof_map(zeta, ice_columns_with_halo(h, False), np.zeros(h.shape, dtype=bool))
     x = 30.0 * rng.standard_normal(2 * n)
     dx, dy, tilt, b_visc, p, sigma = params[:6]
-    diag, upper = blatter_kernels.picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p,
+    diag, upper = blatter_preconditioner.picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p,
                                                  sigma, 1e-12, 1e-6, False)
-    chains = blatter_kernels.column_chains(dof)
+    chains = blatter_preconditioner.column_chains(dof)
     assert sorted(chains[chains >= 0]) == list(range(n))  # every unknown in exactly one column
     dense = np.diag(diag)
     for half in (0, n):
@@ -174,7 +174,7 @@ def test_column_preconditioner_solves_its_tridiagonal_systems():
                         upper[half + below]
     assert np.all(np.linalg.eigvalsh(dense) > 0)  # positive definite
     r = rng.standard_normal(2 * n)
-    out = blatter_kernels.column_solve(diag, upper, chains, r, np.empty(2 * n))
+    out = blatter_preconditioner.column_solve(diag, upper, chains, r, np.empty(2 * n))
     np.testing.assert_allclose(dense @ out, r, rtol=0, atol=1e-9 * np.abs(r).max())
 
 

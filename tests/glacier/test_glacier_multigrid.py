@@ -7,7 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from unerode_cli.glacier import blatter, blatter_kernels, coupled
+from unerode_cli.glacier import (
+    blatter,
+    blatter_energy,
+    blatter_preconditioner,
+    coupled,
+    lbfgs_kernels,
+    multigrid_transfers,
+)
 from unerode_cli.grid import Grid
 
 
@@ -28,11 +35,11 @@ def test_threaded_energy_gradient_is_bit_identical(periodic, shape):
     level = blatter._level(bed, h, np.full(shape, 2e4), np.ones(shape, dtype=bool), 400.0, 400.0,
                            blatter.FlowParams(), periodic, 0.0)
     x = 10.0 * np.random.default_rng(3).standard_normal(2 * level.n)
-    u, v = blatter_kernels.expand(x, level.dof)
+    u, v = blatter_energy.expand(x, level.dof)
     serial = np.full((2, *u.shape), np.nan)  # every node written, zeros included
     threads = np.full((2, *u.shape), np.nan)
-    energy = blatter_kernels.energy_gradient(u, v, *level.args[1:], *serial)
-    assert energy == blatter_kernels.energy_gradient_parallel(u, v, *level.args[1:], *threads)
+    energy = blatter_energy.energy_gradient(u, v, *level.args[1:], *serial)
+    assert energy == blatter_energy.energy_gradient_parallel(u, v, *level.args[1:], *threads)
     assert np.array_equal(serial, threads)
 
 
@@ -43,27 +50,27 @@ def test_threaded_lbfgs_passes_are_bit_identical():
     level = blatter._level(bed, h, np.full(bed.shape, 2e4), np.ones(bed.shape, dtype=bool), 200.0, 200.0,
                            blatter.FlowParams(), False, 0.0)
     size = 2 * level.n
-    assert size > 2 * blatter_kernels.BLOCK  # several blocks
+    assert size > 2 * lbfgs_kernels.BLOCK  # several blocks
     rng = np.random.default_rng(11)
     a, b, c, d = (rng.standard_normal(size) for _ in range(4))
-    assert blatter_kernels.dot(a, b) == blatter_kernels._dot_threads(a, b)
-    assert blatter_kernels.dot(a, b) == pytest.approx(float(a @ b), rel=1e-12)
+    assert lbfgs_kernels.dot(a, b) == lbfgs_kernels._dot_threads(a, b)
+    assert lbfgs_kernels.dot(a, b) == pytest.approx(float(a @ b), rel=1e-12)
     y1, y2 = a.copy(), a.copy()
-    serial = blatter_kernels._add_scaled_dot(y1, 0.3, b, c)
-    assert serial == blatter_kernels._add_scaled_dot_threads(y2, 0.3, b, c)
+    serial = lbfgs_kernels._add_scaled_dot(y1, 0.3, b, c)
+    assert serial == lbfgs_kernels._add_scaled_dot_threads(y2, 0.3, b, c)
     assert np.array_equal(y1, y2) and np.allclose(y1, a + 0.3 * b)
     s1, t1, s2, t2 = (np.empty(size) for _ in range(4))
-    assert (blatter_kernels.new_pair(a, b, c, d, s1, t1)
-            == blatter_kernels._new_pair_threads(a, b, c, d, s2, t2))
+    assert (lbfgs_kernels.new_pair(a, b, c, d, s1, t1)
+            == lbfgs_kernels._new_pair_threads(a, b, c, d, s2, t2))
     assert np.array_equal(s1, a - b) and np.array_equal(t1, c - d) and np.array_equal(s2, s1)
     x = rng.standard_normal(size)
     dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma = level.args[:9]
-    diag, upper = blatter_kernels.picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
+    diag, upper = blatter_preconditioner.picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
                                                  1e-12, 1e-6, False)
-    inv, ratio = blatter_kernels.column_factor(diag, upper, level.chains)
-    serial = blatter_kernels.column_solve_factored(inv, ratio, upper, level.chains, a, np.empty(size))
+    inv, ratio = blatter_preconditioner.column_factor(diag, upper, level.chains)
+    serial = blatter_preconditioner.column_solve_factored(inv, ratio, upper, level.chains, a, np.empty(size))
     threads = np.empty(size)
-    blatter_kernels._column_solve_threads(inv, ratio, upper, level.chains, a, threads)
+    blatter_preconditioner._column_solve_threads(inv, ratio, upper, level.chains, a, threads)
     assert np.array_equal(serial, threads)
 
 
@@ -74,7 +81,7 @@ def test_driving_force_is_the_gradient_at_rest(periodic):
     level = blatter._level(bed, h, np.full(bed.shape, 2e4), np.ones(bed.shape, dtype=bool), 400.0, 400.0,
                            blatter.FlowParams(), periodic, 0.05)
     dof, zeta, _, dx, dy, tilt, _, _, _, rho_g = level.args[:10]
-    drive = blatter_kernels.driving_force(dof, zeta, dx, dy, tilt, rho_g, periodic, level.n)
+    drive = blatter_energy.driving_force(dof, zeta, dx, dy, tilt, rho_g, periodic, level.n)
     at_rest = level.evaluate(np.zeros(2 * level.n))[1]
     assert np.linalg.norm(at_rest) > 0
     np.testing.assert_allclose(drive, at_rest, rtol=1e-12, atol=1e-12 * np.abs(at_rest).max())
@@ -94,11 +101,11 @@ def test_transfer_operators_are_adjoint():
         coarse = levels[1]
         y = rng.standard_normal(2 * coarse.n)
         g = rng.standard_normal(2 * fine.n)
-        py = blatter_kernels.prolong(y, fine.transfer, fine.n)
-        ptg = blatter_kernels.restrict_gradient(g, fine.transfer, coarse.n)
+        py = multigrid_transfers.prolong(y, fine.transfer, fine.n)
+        ptg = multigrid_transfers.restrict_gradient(g, fine.transfer, coarse.n)
         assert py @ g == pytest.approx(y @ ptg, rel=1e-12)
         # a uniform coarse field prolongs to a uniform field wherever the fine nodes see coarse ones
-        ones = blatter_kernels.prolong(np.ones(2 * coarse.n), fine.transfer, fine.n)
+        ones = multigrid_transfers.prolong(np.ones(2 * coarse.n), fine.transfer, fine.n)
         assert np.all((ones <= 1.0 + 1e-12) & (ones >= 0.0)) and np.median(ones) == 1.0
 
 

@@ -20,7 +20,9 @@ from unerode_cli.particles import (
     preset_params,
     run,
 )
-from unerode_cli.volume.sdf import ImplicitField, Surface, ground_volume
+from unerode_cli.volume.sdf_field import ImplicitField
+from unerode_cli.volume.sdf_kernels import ground_volume
+from unerode_cli.volume.sdf_shapes import Surface
 from unerode_cli.volume.voxels import VoxelGeometry
 
 N, DX = 32, 10.0

@@ -1,6 +1,7 @@
-"""Implicit terrains (``volume.sdf``, 003 §4.3): primitives and their composition against
-independent distance formulas, normals of a sphere, metaballs that cancel, the error that
-flattening adds, and the volume a change moves against a fine-grid integral."""
+"""Implicit terrains (``volume.sdf_shapes``, ``sdf_kernels``, ``sdf_field``, 003 §4.3): primitives
+and their composition against independent distance formulas, normals of a sphere, metaballs that
+cancel, the error that flattening adds, and the volume a change moves against a fine-grid
+integral."""
 
 from __future__ import annotations
 
@@ -9,18 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from unerode_cli.volume.sdf import (
-    BALL_COLUMNS,
-    Box,
-    Capsule,
-    Difference,
-    ImplicitField,
-    Plane,
-    Sphere,
-    Surface,
-    Union,
-    ground_volume,
-)
+from unerode_cli.volume.sdf_field import ImplicitField
+from unerode_cli.volume.sdf_kernels import BALL_COLUMNS, ground_volume
+from unerode_cli.volume.sdf_shapes import Box, Capsule, Difference, Plane, Sphere, Surface, Union
 from unerode_cli.volume.voxel_kernels import top_surface
 from unerode_cli.volume.voxels import VoxelGeometry
 

@@ -6,7 +6,9 @@ Modules, one job each:
 - ``massbalance``: M = min(p_max, β(s − E)) (001 Eq. 2);
 - ``lattice``: the terrain-following lattice of N layers (001 §4.2) and its degrees of freedom;
 - ``blatter``: horizontal ice velocities minimising the Blatter–Pattyn energy (001 Eq. 7),
-  with the numba energy and analytic gradient in ``blatter_kernels``;
+  with the numba energy and analytic gradient in ``blatter_energy``, the column preconditioner in
+  ``blatter_preconditioner``, the L-BFGS passes in ``lbfgs_kernels`` and the multigrid transfers
+  in ``multigrid_transfers``;
 - ``sia``: the shallow-ice approximation, the fast baseline;
 - ``transport``: ∂H/∂t = M − ∇·(H ū) (001 Eq. 1), limited upwind fluxes in ``transport_kernels``;
 - ``multiscale``: long steps of that transport, δt(x) and a Gaussian stack of T (001 §5);

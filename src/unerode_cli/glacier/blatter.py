@@ -4,7 +4,7 @@ The velocities (u, v) at the nodes of the terrain-following lattice (``lattice``
 
     E(u) = ∫_V (B/p)·|D(u)|^p dV + ∫_Γ (C/σ)·|u_b|_M^σ dS + ρg ∫_V ∇s·u dV          (001 Eq. 7)
 
-discretised in ``blatter_kernels`` (energy and analytic gradient in numba). Here E is
+discretised in ``blatter_energy`` (energy and analytic gradient in numba). Here E is
 minimised by L-BFGS (``_lbfgs``, with the analytic gradient) over the unknowns of the
 ice-covered columns and their one-column halo, warm-started from a previous solution, and
 preconditioned column by column: the Picard Hessian restricted to each lattice column is
@@ -49,7 +49,7 @@ mm/y), and the L-BFGS solves converge in ~50 iterations instead of hitting their
 
 |u_b|_M² = u_b² + v_b² + (u_b ∂x b + v_b ∂y b)² is the squared velocity along the bed (001 §4.1's
 M-norm, read with the bed slope ∂b, which its printed form garbles), and the sliding energy is
-integrated over the bed's own area (``blatter_kernels``).
+integrated over the bed's own area (``blatter_energy``).
 
 Time units: A in Pa⁻³ per year gives velocities in m/y directly; ρ·g (Pa/m) needs no time
 unit, so no seconds enter (ISMIP-HOM's year is 31 556 926 s: A = 1e-16 Pa⁻³·a⁻¹ is 3.17e-24
@@ -224,11 +224,11 @@ _SLIDING_FLOOR = 1e-3
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
-    """aᵀb in numba (``blatter_kernels.dot``: one thread, a fixed order; BLAS would spread an
+    """aᵀb in numba (``lbfgs_kernels.dot``: one thread, a fixed order; BLAS would spread an
     11 MB dot over threads that the energy's threads keep busy)."""
-    from unerode_cli.glacier import blatter_kernels as bk
+    from unerode_cli.glacier.lbfgs_kernels import dot
 
-    return float(bk.dot(a, b))
+    return float(dot(a, b))
 
 
 def _norm(a: np.ndarray) -> float:
@@ -300,9 +300,9 @@ class _History:
     def add(self, x_new: np.ndarray, x: np.ndarray, g_new: np.ndarray, g: np.ndarray) -> None:
         memory = self.rho.size
         row = (self.newest + 1) % memory
-        from unerode_cli.glacier import blatter_kernels as bk
+        from unerode_cli.glacier.lbfgs_kernels import new_pair
 
-        curvature = bk.new_pair(x_new, x, g_new, g, self.s[row], self.y[row])
+        curvature = new_pair(x_new, x, g_new, g, self.s[row], self.y[row])
         if curvature > 0:
             self.rho[row] = 1.0 / curvature
             self.newest, self.count = row, min(self.count + 1, memory)
@@ -311,7 +311,7 @@ class _History:
 def _lbfgs(obj: _Objective, x: np.ndarray, direction_of, drive: float, rtol: float, max_iter: int,
            memory: int = LBFGS_MEMORY, history: _History | None = None, g: np.ndarray | None = None):
     """Preconditioned L-BFGS on ``obj`` from x; ``direction_of(g, s_hist, y_hist, rho, count,
-    newest)`` is the two-loop recursion (``blatter_kernels.lbfgs_direction`` with its
+    newest)`` is the two-loop recursion (``lbfgs_kernels.lbfgs_direction`` with its
     preconditioner bound). Stops when ‖∇E(x)‖₂ / drive ≤ rtol, after ``max_iter``
     iterations, or when the line search fails from the preconditioned steepest descent.
     ``history`` (kept and updated) continues an earlier run; ``g`` is ∇E(x) when known.
@@ -390,21 +390,21 @@ class _Level:
     transfer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # P to the next coarser level
     history: _History | None = None
     preconditioner: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-    work: tuple[np.ndarray, ...] | None = None  # ``blatter_kernels.objective``'s scratch, made on first use
+    work: tuple[np.ndarray, ...] | None = None  # ``blatter_energy.objective``'s scratch, made on first use
 
     def evaluate(self, x: np.ndarray) -> tuple[float, np.ndarray]:
-        """(E, ∇E) at the unknowns x (``blatter_kernels.objective``)."""
-        from unerode_cli.glacier import blatter_kernels as bk
+        """(E, ∇E) at the unknowns x (``blatter_energy.objective``)."""
+        from unerode_cli.glacier.blatter_energy import objective, workspace
 
         if self.work is None:
-            self.work = bk.workspace(self.dof)
-        return bk.objective(x, *self.args, self.work)
+            self.work = workspace(self.dof)
+        return objective(x, *self.args, self.work)
 
 
 def _level(b: np.ndarray, h: np.ndarray, c_node: np.ndarray, valid: np.ndarray, dx: float, dy: float,
            params: FlowParams, periodic: bool, tilt: float) -> _Level:
     """The lattice of the geometry (b, H) on cells dx × dy (m)."""
-    from unerode_cli.glacier import blatter_kernels as bk
+    from unerode_cli.glacier.blatter_preconditioner import column_chains
 
     zeta = layer_elevations(b, h, params.n_layers, params.dz_min)
     active = ice_columns_with_halo(h, periodic) & valid
@@ -412,7 +412,7 @@ def _level(b: np.ndarray, h: np.ndarray, c_node: np.ndarray, valid: np.ndarray, 
     c_face = basal_face_friction(c_node, h, periodic)
     args = (dof, zeta, c_face, dx, dy, tilt, params.b, 1.0 + 1.0 / params.glen_n, params.sigma,
             params.rho * params.gravity, params.strain_rate_reg**2, params.sliding_reg**2, periodic)
-    return _Level(dof, n, args, bk.column_chains(dof) if n else np.empty((0, 0), np.int64))
+    return _Level(dof, n, args, column_chains(dof) if n else np.empty((0, 0), np.int64))
 
 
 def _coarsening(size: int, periodic: bool) -> int:
@@ -423,7 +423,7 @@ def _hierarchy(b: np.ndarray, h: np.ndarray, c_node: np.ndarray, valid: np.ndarr
                dy: float, params: FlowParams, periodic: bool, tilt: float, fine: _Level) -> list[_Level]:
     """[fine, coarser, …]: each level keeps every other row and/or column of nodes of the one
     before (bed, thickness, C and domain sampled there, cells twice as long)."""
-    from unerode_cli.glacier import blatter_kernels as bk
+    from unerode_cli.glacier.multigrid_transfers import transfer_entries
 
     levels = [fine]
     while True:
@@ -436,7 +436,7 @@ def _hierarchy(b: np.ndarray, h: np.ndarray, c_node: np.ndarray, valid: np.ndarr
         if coarse.n == 0:
             return levels
         levels[-1].fy, levels[-1].fx = fy, fx
-        levels[-1].transfer = bk.transfer_entries(levels[-1].dof, coarse.dof, fy, fx, periodic)
+        levels[-1].transfer = transfer_entries(levels[-1].dof, coarse.dof, fy, fx, periodic)
         levels.append(coarse)
 
 
@@ -462,18 +462,19 @@ class _Multigrid:
     def precondition(self, x: np.ndarray, index: int = 0) -> None:
         """Refresh the column preconditioners of the levels ≥ index at the velocities x of that
         level (the coarser ones at its injection)."""
-        from unerode_cli.glacier import blatter_kernels as bk
+        from unerode_cli.glacier.blatter_preconditioner import column_factor, picard_columns
+        from unerode_cli.glacier.multigrid_transfers import inject
 
         for lev, coarse in zip(self.levels[index:], [*self.levels[index + 1:], None], strict=True):
             dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma = lev.args[:9]
-            diag, upper = bk.picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
-                                            _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, lev.args[-1])
-            lev.preconditioner = (*bk.column_factor(diag, upper, lev.chains), upper)
+            diag, upper = picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma,
+                                         _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, lev.args[-1])
+            lev.preconditioner = (*column_factor(diag, upper, lev.chains), upper)
             if coarse is not None:
-                x = bk.inject(x, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx)
+                x = inject(x, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx)
 
     def _smooth(self, index: int, obj: _Objective, x: np.ndarray, g: np.ndarray | None, iters: int):
-        from unerode_cli.glacier import blatter_kernels as bk
+        from unerode_cli.glacier.lbfgs_kernels import lbfgs_direction
 
         lev = self.levels[index]
         if lev.history is None:
@@ -482,8 +483,8 @@ class _Multigrid:
         out = np.empty(2 * lev.n)
 
         def direction_of(g, s_hist, y_hist, rho, count, newest):
-            return bk.lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper,
-                                      lev.chains, out)
+            return lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper,
+                                   lev.chains, out)
 
         rtol = self.rtol if index == 0 else 0.0
         x, g, it, status = _lbfgs(obj, x, direction_of, self.drive, rtol, iters, history=lev.history, g=g)
@@ -495,7 +496,7 @@ class _Multigrid:
     def cycle(self, x: np.ndarray, g: np.ndarray | None = None, index: int = 0,
               shift: np.ndarray | None = None, budget: int = 1 << 30):
         """One cycle from x on level ``index`` (model E − shiftᵀx); returns (x, gradient)."""
-        from unerode_cli.glacier import blatter_kernels as bk
+        from unerode_cli.glacier.multigrid_transfers import inject, prolong, restrict_gradient
 
         lev = self.levels[index]
         obj = _Objective(lev, shift)
@@ -509,12 +510,12 @@ class _Multigrid:
             if index == 0 and done:
                 return x, g
             coarse = self.levels[index + 1]
-            y0 = bk.inject(x, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx)
+            y0 = inject(x, lev.dof, coarse.dof, coarse.n, lev.fy, lev.fx)
             self.evaluations += 1
             shift_c = coarse.evaluate(y0)[1]
-            shift_c -= bk.restrict_gradient(g, lev.transfer, coarse.n)
+            shift_c -= restrict_gradient(g, lev.transfer, coarse.n)
             y, _ = self.cycle(y0, None, index + 1, shift_c)
-            e = bk.prolong(y - y0, lev.transfer, lev.n)
+            e = prolong(y - y0, lev.transfer, lev.n)
             slope0 = _dot(g, e)
             if slope0 < 0:
                 step, g_new = _line_search(obj, x, e, slope0, 1.0)
@@ -571,7 +572,9 @@ def solve(
     Returns:
         A ``FlowSolution`` (velocities zero on nodes without unknowns).
     """
-    from unerode_cli.glacier import blatter_kernels as bk
+    from unerode_cli.glacier.blatter_energy import driving_force, expand
+    from unerode_cli.glacier.blatter_preconditioner import column_factor, picard_columns
+    from unerode_cli.glacier.lbfgs_kernels import lbfgs_direction
 
     params = params or FlowParams()
     shape = grid.shape
@@ -608,7 +611,7 @@ def solve(
         x0[dof[has]] = u0[has]
         x0[n + dof[has]] = v0[has]
     rho_g = params.rho * params.gravity
-    drive = _norm(bk.driving_force(dof, zeta, grid.dx, grid.dy, tilt, rho_g, periodic, n))
+    drive = _norm(driving_force(dof, zeta, grid.dx, grid.dy, tilt, rho_g, periodic, n))
     if drive == 0.0:
         solution.message = "no driving stress"
         return solution
@@ -655,13 +658,13 @@ def solve(
         # The column preconditioner at the current velocities, then L-BFGS; rounds of growing
         # length refresh it as the viscosity settles. A round that stalls (the energy no
         # longer resolves the steps) twice in a row ends the minimisation.
-        diag, upper = bk.picard_columns(x, dof, zeta, c_face, grid.dx, grid.dy, args[5], params.b, p,
-                                        params.sigma, _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, periodic)
+        diag, upper = picard_columns(x, dof, zeta, c_face, grid.dx, grid.dy, args[5], params.b, p,
+                                     params.sigma, _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, periodic)
         obj = _Objective(fine)
-        inv, ratio = bk.column_factor(diag, upper, chains)
+        inv, ratio = column_factor(diag, upper, chains)
 
         def direction_of(g, s_hist, y_hist, rho, count, newest, inv=inv, ratio=ratio, upper=upper):
-            return bk.lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper, chains, out)
+            return lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper, chains, out)
 
         x, g, it, status = _lbfgs(obj, x, direction_of, drive, rtol, min(round_iter, budget), g=g)
         nit, nfev, budget = nit + it, nfev + obj.evaluations, budget - it
@@ -672,7 +675,7 @@ def solve(
                "stalled: rounding of the energy" if stalls else "iteration limit reached")
     if len(levels) <= 1:
         energy, g = fine.evaluate(x)
-    solution.u, solution.v = bk.expand(x, dof)
+    solution.u, solution.v = expand(x, dof)
     solution.iterations, solution.evaluations = nit, nfev
     solution.residual = _norm(g) / drive
     solution.converged = solution.residual <= rtol or settled

@@ -1,5 +1,5 @@
 """Scenes of implicit terrains (``particle-erode --sdf SCENE.yaml``, 003 §4.3): a YAML tree of
-primitives read into ``volume.sdf`` shapes, validated by pydantic, errors in one sentence
+primitives read into ``volume.sdf_shapes`` shapes, validated by pydantic, errors in one sentence
 naming the file.
 
 Coordinates are those of the DEM's CRS (x east, y north; a projected CRS in metres) and z the
@@ -29,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from unerode_cli.errors import InputError
 from unerode_cli.io.yaml_files import read_yaml_mapping
 from unerode_cli.sandstone.scene import describe
-from unerode_cli.volume.sdf import Box, Capsule, Difference, Plane, Shape, Sphere, Surface, Union
+from unerode_cli.volume.sdf_shapes import Box, Capsule, Difference, Plane, Shape, Sphere, Surface, Union
 
 Vec3 = tuple[float, float, float]
 PRIMITIVES = ("surface", "plane", "box", "sphere", "capsule")

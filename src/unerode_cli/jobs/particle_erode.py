@@ -755,7 +755,8 @@ def sdf_setup(job: ParticleJob, dem: Terrain) -> VoxelSetup:
     """The implicit terrain (003 §4.3) of the job: the DEM's surface, or the scene of --sdf in
     the DEM's CRS, on the nodes of the block the DEM would give (--voxel-size, --depth,
     --headroom, reaching the scene's shapes)."""
-    from unerode_cli.volume.sdf import ImplicitField, Surface, uses_surface
+    from unerode_cli.volume.sdf_field import ImplicitField
+    from unerode_cli.volume.sdf_shapes import Surface, uses_surface
 
     scene = read_sdf_scene(job.sdf) if job.sdf is not None else Surface()
     geometry, heights, columns = _block_frame(job, dem, "sdf", False, scene.z_range())

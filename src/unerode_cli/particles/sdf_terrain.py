@@ -1,17 +1,17 @@
 """Implicit terrains particles alter (003 §4.3): a signed distance function — the surface of a DEM
 or a scene of primitives — altered by a metaball at every impact (003 Eq. 11), held by
-``volume.sdf.ImplicitField``.
+``volume.sdf_field.ImplicitField``.
 
 The tracer reads the field's node cache as a voxel level (a ``TracingSnapshot`` of kind
 VOXELS: −f/dz, > 0 in the ground, trilinear between the nodes), so it finds where a particle
 meets the f = 0 surface and takes the normal from the gradient of f (003 §4's two conditions,
 Eq. 12) with the ground queries of ``voxel_kernels``: one tracer for every representation.
 Impacts are applied in particle order as metaballs put on the surface as the impacts before
-them left it (``volume.sdf.place_changes``); a particle that dies in flight leaves its load on
-the ground straight below it.
+them left it (``volume.sdf_kernels.place_changes``); a particle that dies in flight leaves its
+load on the ground straight below it.
 
 Coordinates are the tracer's: x = column·dx, y = row·dy (m, y south) over the field's columns,
-z the elevation (m). ``volume.sdf`` (and numba) load when a terrain is built.
+z the elevation (m). ``volume.sdf_field`` (and numba) load when a terrain is built.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from unerode_cli.grid import Grid
 from unerode_cli.particles.terrain import VOXELS_KIND, Material, Terrain, TracingSnapshot, _filled
 
 if TYPE_CHECKING:
-    from unerode_cli.volume.sdf import ImplicitField
+    from unerode_cli.volume.sdf_field import ImplicitField
     from unerode_cli.volume.voxels import DensityVoxels, VoxelGeometry
 
 #: Bytes a run needs per node of the cache: the field given and the field altered (8 + 8), the

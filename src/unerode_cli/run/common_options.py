@@ -46,7 +46,8 @@ OVERWRITE = Opt("overwrite", bool, False, "Replace an existing output.", kind="f
                 record=False)
 DTYPE = Opt("dtype", str, "float32", "Output sample type of GDAL outputs.", choices=("float32", "float64"),
             panel=OUTPUT_PANEL, record=False)
-COG = Opt("cog", bool, False, "Write a Cloud-Optimized GeoTIFF.", kind="flag", panel=OUTPUT_PANEL, record=False)
+COG = Opt("cog", bool, False, "Write a Cloud-Optimized GeoTIFF.", kind="flag", panel=OUTPUT_PANEL,
+          record=False)
 CREATION_OPTIONS = Opt("co", str, None, "GDAL creation option KEY=VALUE (repeatable).", kind="multiple",
                        panel=OUTPUT_PANEL, record=False)
 PREVIEW = Opt("preview", Path, None, "Also write a hillshade preview PNG of the output.", role="output",
