@@ -532,6 +532,122 @@ class _Multigrid:
             self.evaluations += obj.evaluations
 
 
+def _checked_inputs(bed: np.ndarray, thickness: np.ndarray, grid: Grid, params: FlowParams,
+                    boundary: str) -> tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Check the arguments of ``solve`` (ValueError, one sentence) and return (periodic, valid,
+    b, H, C): the domain bool[ny, nx]; the bed b (m) and thickness H (m), float64[ny, nx], 0 on
+    nodata cells and H also 0 below MIN_ICE; C (Pa·(y/m)^(σ−1)) broadcast to float64[ny, nx]."""
+    shape = grid.shape
+    if np.shape(bed) != shape or np.shape(thickness) != shape:
+        raise ValueError(f"bed {np.shape(bed)} and thickness {np.shape(thickness)} must have the grid's "
+                         f"shape {shape}")
+    if boundary not in ("periodic", "open"):
+        raise ValueError(f"boundary must be 'periodic' or 'open', got {boundary!r}")
+    params.validate(shape)
+    periodic = boundary == "periodic"
+    if not periodic and min(shape) < 2:
+        raise ValueError("an open lattice needs at least 2 rows and 2 columns")
+    valid = grid.valid
+    h = np.asarray(thickness, dtype=np.float64)
+    h = np.where(valid & (h >= MIN_ICE), h, 0.0)
+    b = np.where(valid, np.asarray(bed, dtype=np.float64), 0.0)
+    c_node = np.broadcast_to(np.asarray(params.sliding_c, dtype=np.float64), shape)
+    return periodic, valid, b, h, c_node
+
+
+def _initial_unknowns(initial: tuple[np.ndarray, np.ndarray] | None, fine: _Level) -> np.ndarray:
+    """The unknowns x = [u_dof, v_dof] (m/y) of the warm start ``initial`` (u, v) float[N+1, ny,
+    nx] on the lattice of ``fine``; zeros without one."""
+    dof, n = fine.dof, fine.n
+    zeta = fine.args[1]
+    x0 = np.zeros(2 * n)
+    if initial is not None:
+        u0, v0 = (np.asarray(a, dtype=np.float64) for a in initial)
+        if u0.shape != zeta.shape or v0.shape != zeta.shape:
+            raise ValueError(f"the initial velocities must have the lattice's shape {zeta.shape}")
+        has = dof >= 0
+        x0[dof[has]] = u0[has]
+        x0[n + dof[has]] = v0[has]
+    return x0
+
+
+def _multigrid_cycles(levels: list[_Level], x: np.ndarray, g: np.ndarray, energy: float, r: float,
+                      drive: float, rtol: float, max_iter: int, energy_rtol: float, warm: bool):
+    """Multigrid cycles (``_Multigrid``) from the unknowns x (m/y) with gradient g and energy E
+    (Pa·m³/y) on the finest level and relative residual r = ‖g‖₂ / drive, until r ≤ rtol,
+    ``max_iter`` finest-level L-BFGS iterations, two stalled cycles in a row, or the distance
+    left to the minimum, ΔE·ρ/(1 − ρ), is at most energy_rtol·|E| (``solve``); ``warm``: x is a
+    warm start (ρ = MG_WARM_CONTRACTION after the first cycle). The column preconditioners are
+    refreshed every MG_REFRESH cycles.
+
+    Returns (x, g, E, r, iterations, evaluations, stalls, settled): stalls counts the stalled
+    cycles at the end, settled says whether the energy rule stopped the cycles."""
+    mg = _Multigrid(levels, drive, rtol)
+    stalls, settled, decrease, cycles = 0, False, 0.0, 0
+    while r > rtol and mg.iterations < max_iter and stalls < 2 and not settled:
+        if cycles % MG_REFRESH == 0:
+            mg.precondition(x)
+        previous = energy
+        mg.energy = None
+        x, g = mg.cycle(x, g, budget=max_iter)
+        if mg.energy is None:
+            energy, g = levels[0].evaluate(x)
+            mg.evaluations += 1
+        else:
+            energy = mg.energy
+        r = _norm(g) / drive
+        # the distance left to the minimum from this cycle's decrease and the contraction
+        # factor ρ of the last two (at least MG_MIN_CONTRACTION); the first cycle removes the
+        # change of geometry much faster than the next ones, so ρ = MG_CONTRACTION until a
+        # third cycle gives two decreases after it, except after the first cycle of a warm start
+        if cycles >= 2:
+            contraction = min(max((previous - energy) / decrease, MG_MIN_CONTRACTION), 0.99)
+        else:
+            contraction = MG_WARM_CONTRACTION if cycles == 0 and warm else MG_CONTRACTION
+        decrease = previous - energy
+        settled = decrease * contraction / (1.0 - contraction) <= energy_rtol * abs(energy)
+        stalls = stalls + 1 if mg.stalled else 0
+        cycles += 1
+    return x, g, energy, r, mg.iterations, mg.evaluations, stalls, settled
+
+
+def _column_rounds(fine: _Level, x: np.ndarray, g: np.ndarray, r: float, drive: float, rtol: float,
+                   max_iter: int, params: FlowParams):
+    """Preconditioned L-BFGS on the single lattice ``fine`` from the unknowns x (m/y) with gradient
+    g and relative residual r = ‖g‖₂ / drive, in rounds of 50, 100, 200, … iterations, each
+    starting from the column preconditioner (``picard_columns``, ``column_factor``) at the
+    current velocities, as the viscosity settles; stops when r ≤ rtol, after ``max_iter``
+    iterations in all, or when two rounds in a row stall (the energy no longer resolves the
+    steps).
+
+    Returns (x, g, r, iterations, evaluations, stalls): stalls counts the stalled rounds at the
+    end."""
+    from unerode_cli.glacier.blatter_preconditioner import column_factor, picard_columns
+    from unerode_cli.glacier.lbfgs_kernels import lbfgs_direction
+
+    dof, n, args, chains = fine.dof, fine.n, fine.args, fine.chains
+    zeta, c_face, dx, dy, tilt, p, periodic = args[1], args[2], args[3], args[4], args[5], args[7], args[-1]
+    out = np.empty(2 * n)
+    nit, nfev, stalls = 0, 0, 0
+    budget = max_iter
+    round_iter = 50
+    while r > rtol and budget > 0 and stalls < 2:
+        diag, upper = picard_columns(x, dof, zeta, c_face, dx, dy, tilt, params.b, p,
+                                     params.sigma, _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, periodic)
+        obj = _Objective(fine)
+        inv, ratio = column_factor(diag, upper, chains)
+
+        def direction_of(g, s_hist, y_hist, rho, count, newest, inv=inv, ratio=ratio, upper=upper):
+            return lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper, chains, out)
+
+        x, g, it, status = _lbfgs(obj, x, direction_of, drive, rtol, min(round_iter, budget), g=g)
+        nit, nfev, budget = nit + it, nfev + obj.evaluations, budget - it
+        r = _norm(g) / drive
+        stalls = stalls + 1 if status == 2 else 0
+        round_iter *= 2
+    return x, g, r, nit, nfev, stalls
+
+
 def solve(
     bed: np.ndarray,
     thickness: np.ndarray,
@@ -545,7 +661,9 @@ def solve(
     max_iter: int = 5000,
     energy_rtol: float = 0.0,
 ) -> FlowSolution:
-    """Ice velocities minimising the Blatter–Pattyn energy (001 Eq. 7) by L-BFGS.
+    """Ice velocities minimising the Blatter–Pattyn energy (001 Eq. 7) by L-BFGS: multigrid
+    cycles (``_multigrid_cycles``) where the lattice has a coarser level, else rounds of
+    L-BFGS with the column preconditioner (``_column_rounds``).
 
     Args:
         bed: float[ny, nx] bed elevation b (m).
@@ -573,112 +691,38 @@ def solve(
         A ``FlowSolution`` (velocities zero on nodes without unknowns).
     """
     from unerode_cli.glacier.blatter_energy import driving_force, expand
-    from unerode_cli.glacier.blatter_preconditioner import column_factor, picard_columns
-    from unerode_cli.glacier.lbfgs_kernels import lbfgs_direction
 
     params = params or FlowParams()
-    shape = grid.shape
-    if np.shape(bed) != shape or np.shape(thickness) != shape:
-        raise ValueError(f"bed {np.shape(bed)} and thickness {np.shape(thickness)} must have the grid's "
-                         f"shape {shape}")
-    if boundary not in ("periodic", "open"):
-        raise ValueError(f"boundary must be 'periodic' or 'open', got {boundary!r}")
-    params.validate(shape)
-    periodic = boundary == "periodic"
-    if not periodic and min(shape) < 2:
-        raise ValueError("an open lattice needs at least 2 rows and 2 columns")
-    valid = grid.valid
-    h = np.asarray(thickness, dtype=np.float64)
-    h = np.where(valid & (h >= MIN_ICE), h, 0.0)
-    b = np.where(valid, np.asarray(bed, dtype=np.float64), 0.0)
-    c_node = np.broadcast_to(np.asarray(params.sliding_c, dtype=np.float64), shape)
+    periodic, valid, b, h, c_node = _checked_inputs(bed, thickness, grid, params, boundary)
     tilt = math.tan(background_slope)
     fine = _level(b, h, c_node, valid, grid.dx, grid.dy, params, periodic, tilt)
-    dof, n, args = fine.dof, fine.n, fine.args
-    zeta = args[1]
+    zeta = fine.args[1]
     solution = FlowSolution(np.zeros_like(zeta), np.zeros_like(zeta), zeta, h)
-    if n == 0:
+    if fine.n == 0:
         solution.message = "no ice"
         return solution
-    c_face, p = args[2], args[7]
-
-    x0 = np.zeros(2 * n)
-    if initial is not None:
-        u0, v0 = (np.asarray(a, dtype=np.float64) for a in initial)
-        if u0.shape != zeta.shape or v0.shape != zeta.shape:
-            raise ValueError(f"the initial velocities must have the lattice's shape {zeta.shape}")
-        has = dof >= 0
-        x0[dof[has]] = u0[has]
-        x0[n + dof[has]] = v0[has]
+    x = _initial_unknowns(initial, fine)
     rho_g = params.rho * params.gravity
-    drive = _norm(driving_force(dof, zeta, grid.dx, grid.dy, tilt, rho_g, periodic, n))
+    drive = _norm(driving_force(fine.dof, zeta, grid.dx, grid.dy, tilt, rho_g, periodic, fine.n))
     if drive == 0.0:
         solution.message = "no driving stress"
         return solution
-
-    x, nit, nfev = x0, 0, 0
-    energy, g = fine.evaluate(x0)
+    energy, g = fine.evaluate(x)
     r = _norm(g) / drive
     levels = (_hierarchy(b, h, c_node, valid, grid.dx, grid.dy, params, periodic, tilt, fine)
               if r > rtol else [])
-    stalls, settled, decrease = 0, False, 0.0
+    settled = False
     if len(levels) > 1:
-        mg = _Multigrid(levels, drive, rtol)
-        cycles = 0
-        while r > rtol and mg.iterations < max_iter and stalls < 2 and not settled:
-            if cycles % MG_REFRESH == 0:
-                mg.precondition(x)
-            previous = energy
-            mg.energy = None
-            x, g = mg.cycle(x, g, budget=max_iter)
-            if mg.energy is None:
-                energy, g = fine.evaluate(x)
-                mg.evaluations += 1
-            else:
-                energy = mg.energy
-            r = _norm(g) / drive
-            # the distance left to the minimum from this cycle's decrease and the contraction
-            # factor ρ of the last two (at least MG_MIN_CONTRACTION); the first cycle removes the
-            # change of geometry much faster than the next ones, so ρ = MG_CONTRACTION until a
-            # third cycle gives two decreases after it, except after the first cycle of a warm start
-            if cycles >= 2:
-                contraction = min(max((previous - energy) / decrease, MG_MIN_CONTRACTION), 0.99)
-            else:
-                contraction = MG_WARM_CONTRACTION if cycles == 0 and initial is not None else MG_CONTRACTION
-            decrease = previous - energy
-            settled = decrease * contraction / (1.0 - contraction) <= energy_rtol * abs(energy)
-            stalls = stalls + 1 if mg.stalled else 0
-            cycles += 1
-        nit, nfev = mg.iterations, mg.evaluations
-    chains = fine.chains
-    out = np.empty(2 * n)
-    budget = max_iter
-    round_iter = 50
-    while r > rtol and budget > 0 and stalls < 2 and len(levels) <= 1:
-        # The column preconditioner at the current velocities, then L-BFGS; rounds of growing
-        # length refresh it as the viscosity settles. A round that stalls (the energy no
-        # longer resolves the steps) twice in a row ends the minimisation.
-        diag, upper = picard_columns(x, dof, zeta, c_face, grid.dx, grid.dy, args[5], params.b, p,
-                                     params.sigma, _STRAIN_FLOOR**2, _SLIDING_FLOOR**2, periodic)
-        obj = _Objective(fine)
-        inv, ratio = column_factor(diag, upper, chains)
-
-        def direction_of(g, s_hist, y_hist, rho, count, newest, inv=inv, ratio=ratio, upper=upper):
-            return lbfgs_direction(g, s_hist, y_hist, rho, count, newest, inv, ratio, upper, chains, out)
-
-        x, g, it, status = _lbfgs(obj, x, direction_of, drive, rtol, min(round_iter, budget), g=g)
-        nit, nfev, budget = nit + it, nfev + obj.evaluations, budget - it
-        r = _norm(g) / drive
-        stalls = stalls + 1 if status == 2 else 0
-        round_iter *= 2
-    message = ("converged" if r <= rtol else "converged: energy settled" if settled else
-               "stalled: rounding of the energy" if stalls else "iteration limit reached")
-    if len(levels) <= 1:
+        x, g, energy, r, nit, nfev, stalls, settled = _multigrid_cycles(
+            levels, x, g, energy, r, drive, rtol, max_iter, energy_rtol, initial is not None)
+    else:
+        x, g, r, nit, nfev, stalls = _column_rounds(fine, x, g, r, drive, rtol, max_iter, params)
         energy, g = fine.evaluate(x)
-    solution.u, solution.v = expand(x, dof)
+    solution.u, solution.v = expand(x, fine.dof)
     solution.iterations, solution.evaluations = nit, nfev
     solution.residual = _norm(g) / drive
     solution.converged = solution.residual <= rtol or settled
     solution.energy = float(energy)
-    solution.message = message
+    solution.message = ("converged" if r <= rtol else "converged: energy settled" if settled else
+                        "stalled: rounding of the energy" if stalls else "iteration limit reached")
     return solution

@@ -18,35 +18,16 @@ import numpy as np
 from unerode_cli.glacier.blatter_energy import basal_face, cell_geometry, expand, terrain_following_gradient
 
 
-@numba.njit(cache=True)
-def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, ureg2, periodic):
-    """The Picard (frozen-viscosity) Hessian of E restricted to each lattice column: the
-    preconditioner of the minimisation (a vertical-line relaxation; thin lattice cells couple
-    the levels of a column far more strongly than neighbouring columns).
-
-    A cell couples each u unknown of corners a, b through w·(4α_x,a α_x,b + α_y,a α_y,b +
-    α_z,a α_z,b) (x ↔ y for v), with w = ∂E/∂|D|² at the current velocities and α_x, α_y, α_z
-    the corner weights in ∂x u, ∂y u, ∂z u (``blatter_energy``'s module docstring); only pairs
-    in one column (the corner below and above, or one corner with itself) are kept. Each basal
-    face adds w_s·2(1 + ∂x b²)/16 (w_s = ∂E/∂|u_b|_M²) to its corners' diagonal. Collapsed
-    levels that share an unknown add their coupling to its diagonal. ``eps2`` and ``ureg2``
-    here are floors of |D|² and |u_b|_M² (they bound w and w_s).
-
-    Longer than 80 lines because the cell loop stays one numba loop nest for speed: it
-    assembles both bands in a single pass over the lattice.
-
-    Returns:
-        (diag, upper), float64[2n] each over the unknowns x = [u_dof, v_dof]: the diagonal (the
-        largest one where no cell touches an unknown), and the coupling of each unknown with
-        the next one up its column (0 at the top).
-    """
-    u, v = expand(x, dof)
+@numba.njit(cache=True, inline="always")
+def _add_cell_couplings(u, v, dof, zeta, dx, dy, tilt, b_visc, p, eps2, periodic, diag, upper):
+    """Add each lattice cell's Picard coupling within a column (``picard_columns``) to ``diag``
+    and ``upper``, float64[2n] over x = [u_dof, v_dof]: w·(4α_x,a α_x,b + α_y,a α_y,b +
+    α_z,a α_z,b) for u (x ↔ y for v), w = area·c_t·½·B·max(|D|², eps2)^(p/2 − 1); a pair whose
+    two corners share an unknown (collapsed levels) adds twice its coupling to the diagonal."""
     nz, ny, nx = u.shape
-    n = x.size // 2
+    n = diag.size // 2
     ncx = nx if periodic else nx - 1
     ncy = ny if periodic else ny - 1
-    diag = np.zeros(2 * n)
-    upper = np.zeros(2 * n)
     area = dx * dy
     for k in range(nz - 1):
         for j in range(ncy):
@@ -85,6 +66,18 @@ def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, u
                             else:
                                 diag[below] += 2.0 * cu
                                 diag[n + below] += 2.0 * cv
+
+
+@numba.njit(cache=True, inline="always")
+def _add_basal_couplings(u, v, dof, zeta, c_face, dx, dy, tilt, sigma, ureg2, periodic, diag):
+    """Add each basal face's sliding term w_s·2(1 + ∂x b²)/16 (u; ∂y b for v) to the diagonal
+    ``diag`` of its corners' unknowns, w_s = area·√(1 + |∂b|²)·C·½·max(|u_b|_M², ureg2)^(σ/2 − 1)
+    (``picard_columns``)."""
+    _, ny, nx = u.shape
+    n = diag.size // 2
+    ncx = nx if periodic else nx - 1
+    ncy = ny if periodic else ny - 1
+    area = dx * dy
     for j in range(ncy):
         j1 = j + 1 if j + 1 < ny else 0
         for i in range(ncx):
@@ -102,6 +95,34 @@ def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, u
                     if d >= 0:
                         diag[d] += ws * 2.0 * (1.0 + bx * bx) / 16.0
                         diag[n + d] += ws * 2.0 * (1.0 + by * by) / 16.0
+
+
+@numba.njit(cache=True)
+def picard_columns(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, eps2, ureg2, periodic):
+    """The Picard (frozen-viscosity) Hessian of E restricted to each lattice column: the
+    preconditioner of the minimisation (a vertical-line relaxation; thin lattice cells couple
+    the levels of a column far more strongly than neighbouring columns).
+
+    A cell couples each u unknown of corners a, b through w·(4α_x,a α_x,b + α_y,a α_y,b +
+    α_z,a α_z,b) (x ↔ y for v), with w = ∂E/∂|D|² at the current velocities and α_x, α_y, α_z
+    the corner weights in ∂x u, ∂y u, ∂z u (``blatter_energy``'s module docstring); only pairs
+    in one column (the corner below and above, or one corner with itself) are kept
+    (``_add_cell_couplings``). Each basal face adds w_s·2(1 + ∂x b²)/16 (w_s = ∂E/∂|u_b|_M²)
+    to its corners' diagonal (``_add_basal_couplings``). Collapsed levels that share an unknown
+    add their coupling to its diagonal. ``eps2`` and ``ureg2`` here are floors of |D|² and
+    |u_b|_M² (they bound w and w_s).
+
+    Returns:
+        (diag, upper), float64[2n] each over the unknowns x = [u_dof, v_dof]: the diagonal (the
+        largest one where no cell touches an unknown), and the coupling of each unknown with
+        the next one up its column (0 at the top).
+    """
+    u, v = expand(x, dof)
+    n = x.size // 2
+    diag = np.zeros(2 * n)
+    upper = np.zeros(2 * n)
+    _add_cell_couplings(u, v, dof, zeta, dx, dy, tilt, b_visc, p, eps2, periodic, diag, upper)
+    _add_basal_couplings(u, v, dof, zeta, c_face, dx, dy, tilt, sigma, ureg2, periodic, diag)
     # unknowns that no cell of positive volume touches: any positive diagonal keeps T definite
     largest = diag.max()
     for d in range(2 * n):

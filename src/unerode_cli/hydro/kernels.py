@@ -151,27 +151,14 @@ def bucket_count(n):
     return max(n // CELLS_PER_BUCKET, 1) + 1
 
 
-@numba.njit(cache=True)
-def flood_into(z, valid, outlets, zf, descending, closed, first, following, heap, pit):
-    """``priority_flood_epsilon`` into arrays given by the caller, which may reuse them.
-
-    Args:
-        z, valid, outlets: as for ``priority_flood_epsilon``.
-        zf: float64[ny*nx] set to the routing surface (m).
-        descending: int[ny*nx] whose last ``count`` entries are set to the order.
-        closed: bool[ny*nx], first: int[bucket_count(ny*nx)], following: int[ny*nx],
-            heap: float64[ny*nx, 2], pit: int[ny*nx]: scratch, any content; the integer
-            arrays (``descending`` too) hold flat cell indices and may be int32 when
-            ny*nx < 2^31.
-
-    Returns:
-        count, the number of valid cells reached.
-    """
-    ny, nx = z.shape
-    n = ny * nx
-    zin = z.ravel()
-    ok = valid.ravel()
-    out = outlets.ravel()
+@numba.njit(cache=True, inline="always")
+def _flood_start(zin, ok, out, zf, closed, first, following):
+    """The start of ``flood_into``: ``zf`` set to the elevations ``zin`` (m; +inf on nodata),
+    ``closed`` to the outlets and the nodata cells, and the bucket lists (``first``,
+    ``following``) to the outlets, the elevation range of the valid cells cut into
+    ``first.size`` buckets. Returns (zmin (m), 1 / bucket width (1/m; 0: a single bucket),
+    index of the last bucket)."""
+    n = zin.size
     zmin = np.inf
     zmax = -np.inf
     for i in range(n):
@@ -194,6 +181,29 @@ def flood_into(z, valid, outlets, zf, descending, closed, first, following, heap
             b = _bucket(zin[i], zmin, inv_width, last)
             following[i] = first[b]
             first[b] = i
+    return zmin, inv_width, last
+
+
+@numba.njit(cache=True)
+def flood_into(z, valid, outlets, zf, descending, closed, first, following, heap, pit):
+    """``priority_flood_epsilon`` into arrays given by the caller, which may reuse them.
+
+    Args:
+        z, valid, outlets: as for ``priority_flood_epsilon``.
+        zf: float64[ny*nx] set to the routing surface (m).
+        descending: int[ny*nx] whose last ``count`` entries are set to the order.
+        closed: bool[ny*nx], first: int[bucket_count(ny*nx)], following: int[ny*nx],
+            heap: float64[ny*nx, 2], pit: int[ny*nx]: scratch, any content; the integer
+            arrays (``descending`` too) hold flat cell indices and may be int32 when
+            ny*nx < 2^31.
+
+    Returns:
+        count, the number of valid cells reached.
+    """
+    ny, nx = z.shape
+    n = ny * nx
+    zmin, inv_width, last = _flood_start(z.ravel(), valid.ravel(), outlets.ravel(), zf, closed, first,
+                                         following)
     current = -1  # buckets up to this one are on the heap
     size = 0
     off = neighbour_offsets(nx)

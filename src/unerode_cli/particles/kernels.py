@@ -236,6 +236,14 @@ def trace_particle(index, iteration, seed, phys, h, valid, mat, keps, tauc, dx, 
     ``path`` has rows, its path (column, row, z m, t s) every ``path_stride`` steps and at death.
 
     Returns (number of events, radius R (m), fate, number of impacts, path length).
+
+    Kept whole: one loop over the particle's life whose state (position, grid coordinates,
+    velocity, ground level, surface normal, contact flags, load, event count, time, step and the
+    drag factors memoised for the last step and medium) lives in some twenty locals that both
+    halves of each pass, the impact and the step, read and rewrite; the parts that need no such
+    state are helpers already (``_emit``, ``_onto``, ``_move``, ``_ground``, ``_entry``,
+    ``_down_onto``, ``_record``, ``_apply_live``), and a split would pass that state in and out
+    as long tuples.
     """
     ny, nx = h.shape
     state, radius, x, y, z = _emit(ph.stream_key(seed, iteration, index), h, dx, dy, phys,

@@ -66,6 +66,22 @@ def excess_slope(length, c, b, p):
     return x
 
 
+@numba.njit(cache=True, inline="always")
+def _lowering(b, lengths, best, best_b, c, q_slope):
+    """The lowering (m) of a cell by one implicit step (``debris_sweep``): the largest of the
+    one-neighbour lowerings min(c·x_k^q', b_k), x_k = ``excess_slope``(L_k, c, b_k, q'), over the
+    neighbours k with b_k > 0, c = dt·K' (m). ``best`` is the neighbour of the largest b (m),
+    ``best_b``; solved first, it rules most other neighbours out without a solve."""
+    x = excess_slope(lengths[best], c, best_b, q_slope)
+    lowering = min(c * _power(x, q_slope), best_b)
+    for k in range(8):
+        if k == best or b[k] <= lowering:  # its root is not below h0 − lowering
+            continue
+        x = excess_slope(lengths[k], c, b[k], q_slope)
+        lowering = max(lowering, min(c * _power(x, q_slope), b[k]))
+    return lowering
+
+
 @numba.njit(cache=True)
 def debris_sweep(h, fixed, order, area, dx, dy, k_df, k_da, q_area, q_slope, s_c, dt):
     """One implicit step of ∂z/∂t = −k_df·(1 + k_da·A^q)·max(0, |∇z| − s_c)^q' (001 Eq. 8).
@@ -140,14 +156,7 @@ def debris_sweep(h, fixed, order, area, dx, dy, k_df, k_da, q_area, q_slope, s_c
         c = dt * _at(k_df, i) * (1.0 + k_da * area[i] ** q_area)
         if c <= 0.0:
             continue
-        # the largest b first: then most other neighbours are ruled out without a solve
-        x = excess_slope(lengths[best], c, best_b, q_slope)
-        lowering = min(c * _power(x, q_slope), best_b)
-        for k in range(8):
-            if k == best or b[k] <= lowering:  # its root is not below h0 − lowering
-                continue
-            x = excess_slope(lengths[k], c, b[k], q_slope)
-            lowering = max(lowering, min(c * _power(x, q_slope), b[k]))
+        lowering = _lowering(b, lengths, best, best_b, c, q_slope)
         if lowering > 0.0:
             dh[i] = -lowering
             new[i] = h0 - lowering

@@ -95,6 +95,40 @@ def _uphill_neighbour_eroding(h, valid, eroding, r, c):
     return False
 
 
+@numba.njit(cache=True, inline="always")
+def _cell_change(h, h_new, valid, eroding, i, r, c, arriving, slope, slope_down, k_th, tan_theta, dt,
+                 dx, dy, alpha, max_rate, constraints):
+    """(Δh (m), Qr (m³/y)) of cell i = (r, c) of ``thermal_sweep``, given the rock discharge
+    Q̃r arriving from its donors (``arriving``, m³/y): erosion where |∇h| > tan θ (marked in
+    ``eroding``), else deposition (dt > 0) or un-deposition under ``constraints`` (dt < 0), by
+    the rules of ``thermal_sweep``'s docstring; Qr ≥ 0."""
+    area = dx * dy
+    step_len = min(dx, dy)
+    excess = slope[i] - tan_theta
+    if excess > 0.0:
+        rate = _at(k_th, i) * excess
+        change = -dt * rate
+        leaving = arriving + rate * area
+        eroding[i] = True
+    elif dt > 0.0:
+        change = min(dt * arriving / area, step_len * (tan_theta - slope[i]))
+        leaving = arriving - change * area / dt
+    else:
+        span = abs(dt)
+        depth = span * arriving / area
+        if constraints & SLOPE_LIMIT:
+            depth = min(depth, alpha * step_len * slope_down[i])
+        if constraints & RATE_LIMIT:
+            depth = min(depth, span * max_rate)
+        if constraints & CONVEXITY and depth > 0.0 and _uphill_neighbour_eroding(
+                h, valid, eroding, r, c):
+            floor = convexity_floor(h, h_new, valid, r, c, dx, dy)
+            depth = min(depth, max(0.0, h[r, c] - floor))
+        change = -depth
+        leaving = arriving - depth * area / span
+    return change, max(leaving, 0.0)
+
+
 @numba.njit(cache=True)
 def thermal_sweep(zf, h, valid, outlets, order, dx, dy, single, slope, slope_down, k_th,
                   tan_theta, dt, alpha, max_rate, constraints):
@@ -135,7 +169,6 @@ def thermal_sweep(zf, h, valid, outlets, order, dx, dy, single, slope, slope_dow
     off = neighbour_offsets(nx)
     inv_dist = inverse_distances(dx, dy)
     area = dx * dy
-    step_len = min(dx, dy)
     frac = np.empty(8, dtype=np.float64)
     dh = np.zeros(size, dtype=np.float64)
     rock = np.zeros(size, dtype=np.float64)
@@ -144,7 +177,6 @@ def thermal_sweep(zf, h, valid, outlets, order, dx, dy, single, slope, slope_dow
     removed = 0.0
     added = 0.0
     outflow_rate = 0.0
-    span = abs(dt)
     for idx in range(order.size):
         i = order[idx]
         arriving = rock[i]
@@ -153,28 +185,8 @@ def thermal_sweep(zf, h, valid, outlets, order, dx, dy, single, slope, slope_dow
             continue
         r = i // nx
         c = i - r * nx
-        excess = slope[i] - tan_theta
-        if excess > 0.0:
-            rate = _at(k_th, i) * excess
-            change = -dt * rate
-            leaving = arriving + rate * area
-            eroding[i] = True
-        elif dt > 0.0:
-            change = min(dt * arriving / area, step_len * (tan_theta - slope[i]))
-            leaving = arriving - change * area / dt
-        else:
-            depth = span * arriving / area
-            if constraints & SLOPE_LIMIT:
-                depth = min(depth, alpha * step_len * slope_down[i])
-            if constraints & RATE_LIMIT:
-                depth = min(depth, span * max_rate)
-            if constraints & CONVEXITY and depth > 0.0 and _uphill_neighbour_eroding(
-                    h, valid, eroding, r, c):
-                floor = convexity_floor(h, h_new, valid, r, c, dx, dy)
-                depth = min(depth, max(0.0, h[r, c] - floor))
-            change = -depth
-            leaving = arriving - depth * area / span
-        leaving = max(leaving, 0.0)
+        change, leaving = _cell_change(h, h_new, valid, eroding, i, r, c, arriving, slope, slope_down, k_th,
+                                       tan_theta, dt, dx, dy, alpha, max_rate, constraints)
         dh[i] = change
         h_new[r, c] = h[r, c] + change
         if change < 0.0:
