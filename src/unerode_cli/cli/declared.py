@@ -73,10 +73,8 @@ def parameter(opt: Opt) -> inspect.Parameter:
             info["count"] = True
         if opt.panel:
             info["rich_help_panel"] = opt.panel
-        show = opt.default is not None and opt.kind != "count" and opt.recorded_as is not None or bool(
-            opt.default)
-        marker = typer.Option(*flags, **info, show_default=show if opt.parser is None or opt.default
-                              is not None else False)
+        marker = typer.Option(*flags, **info,
+                              show_default=opt.default is not None and opt.kind != "count")
     return inspect.Parameter(opt.name, inspect.Parameter.KEYWORD_ONLY, default=default,
                              annotation=Annotated[annotation, marker])
 
@@ -116,6 +114,8 @@ def command(job_path: str, help: str, epilog: str | None = None,
                 after(job, summary, verbosity)
             elif summary:
                 say(summary, verbosity, SUMMARY)
+            if getattr(summary, "exit_code", 0):
+                raise typer.Exit(summary.exit_code)
 
     run_command.__signature__ = inspect.Signature(params + verbose_quiet)  # type: ignore[attr-defined]
     run_command.__annotations__ = {p.name: p.annotation for p in params + verbose_quiet}

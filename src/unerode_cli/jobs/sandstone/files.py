@@ -1,0 +1,153 @@
+"""What a `sandstone` job writes in OUT_DIR (through ``io/`` and ``viz/``, atomically):
+``particles.ply``, the top heightfield, ``preview.png``, ``frames.csv``, ``run.json``, the
+snapshots and resumable state of ``--snapshot-every``, and the ``--mesh`` surface."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from affine import Affine
+
+from unerode_cli.io.checkpoints import write_checkpoint
+from unerode_cli.io.csv_tables import write_table
+from unerode_cli.io.json_files import to_json, write_json
+from unerode_cli.io.mesh_files import write_mesh
+from unerode_cli.io.particle_ply import write_particle_ply
+from unerode_cli.io.paths import atomic_path
+from unerode_cli.io.provenance import append_history, history_entry
+from unerode_cli.io.rasters import write_terrain
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.io.versions import io_library_versions
+from unerode_cli.jobs.sandstone.planning import PreparedSandstone, fingerprint, snapshot_path
+from unerode_cli.jobs.sandstone.source import Source
+from unerode_cli.sandstone.particles import Particles
+from unerode_cli.sandstone.sampling import top_surface
+from unerode_cli.sandstone.simulation import STAGES, FrameStats, Simulation
+from unerode_cli.sandstone.surface import surface_particles
+from unerode_cli.viz.particles_preview import save_particles_preview
+from unerode_cli.volume.mesh import enclosed_volume
+from unerode_cli.volume.particle_surface import particle_mesh
+
+COMMAND = "sandstone"
+FRAME_COLUMNS = ["frame", "particles", "eroded", "deposited", "exported", "surface", "interlocked_share",
+                 "max_stress_mpa", "mpm_substeps", "mpm_residual", "eroded_fluvial", "discharge_max_m3y",
+                 *(f"{s}_s" for s in STAGES)]
+#: Colour of preview.png per ``--color-by``: the caption of its values.
+PREVIEW_LABELS = {"layer": "layer (bottom = 0; the last is deposits)", "stress": "-tr σ (MPa)",
+                  "viability": "viability b"}
+
+
+def row(stats: FrameStats) -> dict[str, Any]:
+    """One row of ``frames.csv``: a frame's counts, stress (MPa), solver and stage times (s)."""
+    values = {k: getattr(stats, k) for k in FRAME_COLUMNS[:7]}
+    values.update(max_stress_mpa=stats.max_stress / 1e6, mpm_substeps=stats.mpm_substeps,
+                  mpm_residual=stats.mpm_residual, eroded_fluvial=stats.eroded_fluvial,
+                  discharge_max_m3y=stats.discharge_max, **{f"{s}_s": stats.seconds[s] for s in STAGES})
+    return values
+
+
+def write_particles(path: Path, prepared: PreparedSandstone, simulation: Simulation) -> None:
+    """The particles as a binary PLY: position and normal, viability, stress −tr σ (MPa),
+    erodibility E (1/y, 002 Eq. 2), layer, surface, deposit, interlocked, vegetation."""
+    p = simulation.particles
+    rate = np.where(p.interlocked, simulation.k_s[p.layer], simulation.k_w[p.layer]) * p.erodibility
+    write_particle_ply(path, p.positions, p.normals, {
+        "viability": p.viability, "stress": p.stress / 1e6, "erodibility": rate, "layer": p.layer,
+        "surface": surface_particles(p.positions, simulation.surface_grid), "deposit": p.deposit,
+        "interlocked": p.interlocked, "vegetation": p.vegetation,
+    }, comments=(f"unerode-cli {COMMAND}: {prepared.source.description}, frame {simulation.frame}",
+                 "stress: -tr(sigma) in MPa (compression positive); erodibility: E in 1/y (002 Eq. 2)"))
+
+
+def write_snapshot(prepared: PreparedSandstone, simulation: Simulation, rows: list[dict[str, Any]]) -> None:
+    """The particles of this frame in ``snapshots/``, and the state a ``--resume`` continues."""
+    write_particles(snapshot_path(prepared.job, simulation.frame), prepared, simulation)
+    write_state(prepared, simulation, rows)
+
+
+def write_state(prepared: PreparedSandstone, simulation: Simulation, rows: list[dict[str, Any]]) -> None:
+    """``state.npz``: the particles' arrays, the frame reached, the seed, the rows of
+    ``frames.csv`` so far, the simulation's change counter and the run's fingerprint."""
+    arrays = {f"particle_{k}": v for k, v in simulation.particles.arrays().items()}
+    write_checkpoint(prepared.paths["state"], **arrays, frame=simulation.frame, seed=prepared.job.seed,
+                     rows=to_json(rows), changes=simulation.changes,
+                     fingerprint=fingerprint(prepared.provenance))
+
+
+def write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: list[dict[str, Any]],
+                  seconds: float, sampled: float) -> None:
+    """Every file of OUT_DIR (and ``--mesh``); ``seconds``: the run's wall time, ``sampled``: that
+    of the sampling (s)."""
+    job, source, paths = prepared.job, prepared.source, prepared.paths
+    p = simulation.particles
+    write_particles(paths["particles"], prepared, simulation)
+    mesh = _mesh(prepared, simulation) if job.mesh is not None else None
+    entry = history_entry(COMMAND, prepared.provenance, job.seed)
+    top = _top(source, p)
+    append_history(top, entry)
+    write_terrain(top, paths["top"])
+    values = {"layer": p.layer, "stress": p.stress / 1e6, "viability": p.viability}[job.color_by]
+    with atomic_path(paths["preview"]) as tmp:
+        save_particles_preview(p.positions, p.normals, values, tmp, PREVIEW_LABELS[job.color_by],
+                               source.lattice.spacing, categorical=job.color_by == "layer",
+                               title=f"{source.description}, frame {simulation.frame}")
+    write_table(paths["frames"], FRAME_COLUMNS, rows)
+    import numba
+    import scipy
+
+    versions = {"numpy": np.__version__, "numba": numba.__version__, "scipy": scipy.__version__,
+                **io_library_versions()}
+    statistics = {
+        "particles": len(p), "frames": simulation.frame,
+        **{key: sum(r[key] for r in rows) for key in ("eroded", "deposited", "exported", "eroded_fluvial")},
+        "discharge_max_m3y": max((r["discharge_max_m3y"] for r in rows), default=0.0),
+        "interlocked_share": float(p.interlocked.mean()) if len(p) else 0.0,
+        "wall_time_s": seconds, "sampling_s": sampled,
+        "stage_seconds": {stage: sum(r[f"{stage}_s"] for r in rows) for stage in STAGES},
+        **({"mesh": mesh} if mesh is not None else {}),
+    }
+    write_json(paths["run"], {**entry, "versions": versions, "threads": numba.get_num_threads(),
+                              "statistics": statistics})
+
+
+def _mesh(prepared: PreparedSandstone, simulation: Simulation) -> dict[str, Any]:
+    """Write the surface mesh of the final particles (each a lattice cell of rock, on the
+    domain's floor as the ground); its vertex and face counts, enclosed volume (m³) and time. For
+    an extruded DEM whose CRS is in metres, the header gives its south-west corner as the origin."""
+    job, source = prepared.job, prepared.source
+    start = time.perf_counter()
+    p, lattice = simulation.particles, source.lattice
+    mesh = particle_mesh(p.positions, p.layer, lattice.spacing**3, lattice.spacing, job.mesh_smoothing,
+                         ground=lattice.low[2])
+    origin, crs_wkt = (0.0, 0.0, 0.0), None
+    dem = source.dem
+    if dem is not None and math.isclose(dem.transform.a, dem.dx) and math.isclose(-dem.transform.e, dem.dy):
+        west, south = dem.transform * (0, dem.shape[0])
+        origin, crs_wkt = (west, south, 0.0), dem.crs_wkt or None
+    write_mesh(prepared.paths["mesh"], mesh, overwrite=True, origin=origin, crs_wkt=crs_wkt,
+               comments=(f"unerode-cli {COMMAND}: {source.description}, frame {simulation.frame}",
+                         "vertex colour: the layer's, as in preview.png; material: the layer (bottom = 0, "
+                         "the last is deposits)"))
+    return {"file": str(job.mesh), "vertices": len(mesh.vertices), "faces": len(mesh.faces),
+            "enclosed_volume_m3": enclosed_volume(mesh), "particle_volume_m3": len(p) * lattice.spacing**3,
+            "smoothing_iterations": job.mesh_smoothing, "seconds": time.perf_counter() - start}
+
+
+def _top(source: Source, particles: Particles) -> Terrain:
+    """The top heightfield: on the DEM's grid (and CRS) for an extruded DEM, else on the
+    lattice's columns with a local (CRS-less) transform."""
+    lattice = source.lattice
+    if source.dem is not None:
+        dem = source.dem
+        top = top_surface(particles.positions, (0.0, 0.0), dem.dx, dem.dy, dem.shape, lattice.low[2],
+                          lattice.spacing)
+        return dem.with_elevation(top)
+    nx, ny = lattice.shape[0], lattice.shape[1]
+    s = lattice.spacing
+    top = top_surface(particles.positions, lattice.low[:2], s, s, (ny, nx), lattice.low[2], s)
+    transform = Affine(s, 0.0, lattice.low[0], 0.0, -s, lattice.low[1] + ny * s)
+    return Terrain(top, s, s, transform=transform)

@@ -1,0 +1,99 @@
+"""Options of `sandstone` (declared once: CLI, pipeline, Python API, provenance).
+
+The defaults of the stress solver (``--substeps`` 10, ``--settle-substeps`` 3000,
+``--tolerance`` 2e-3), of deflation (``--alpha`` 1e6 Pa), deposition (``--repose-angle`` 33°)
+and of the mesh (``--mesh-smoothing`` 5) are those of ``MpmParams``, ``DeflationParams``,
+``DepositionParams`` and ``volume.particle_surface.SMOOTHING``, written out here because those
+modules import numba or scikit-image, which ``--help`` must not load.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from unerode_cli.run.common_options import BAND, CHANNEL, METRES, OVERWRITE, POSITIVE_YEARS, SEED
+from unerode_cli.run.declare import Opt, parameter_options
+from unerode_cli.run.values import Number, Numbers
+from unerode_cli.sandstone.layers import LAYER_PARAMETERS, ROCK_PARAMETERS
+
+LAYER_PANEL = ("Layers (002 Eq. 2, 8, 12; Table 1): a value given replaces every layer's; 'default' is "
+               "that of a layer that sets none")
+ROCK_PANEL = "Rock (002 §4, Eq. 9; Table 2)"
+RUN = "Run"
+PROCESSES = "Processes and wind"
+OUTPUTS = "Outputs"
+
+COLOR_BY = ("layer", "stress", "viability")
+TOP_FORMATS = ("tif", "exr")
+#: The ablations of 002 §8.4: field of the flag → process it turns off.
+ABLATIONS = {"no_abrasion": "abrasion", "no_deflation": "deflation", "no_deposition": "deposition",
+             "no_stress": "stress", "no_fluvial": "fluvial"}
+
+
+def _ablation(name: str, help: str) -> Opt:
+    return Opt(name, bool, False, help, kind="flag", panel=PROCESSES, record=False)
+
+
+OPTIONS = (
+    Opt("scene", str, help="A scene YAML file, a preset (arch, hoodoo), or a DEM (.tif, .exr, any GDAL "
+        "raster; needs --extrude).", argument=True, required=True, record=False),
+    Opt("out_dir", Path, help="Output folder (created): particles.ply, top.tif|exr, preview.png, frames.csv, "
+        "run.json.", argument=True, required=True, role="output", record=False),
+    Opt("extrude", float, None, "With a DEM: the rock fills each column from this altitude BASE_M (m) up to "
+        "the DEM's surface.", parser=METRES, panel=RUN),
+    Opt("particles", int, None, "Approximate particle count (the sampling spacing and the grids follow; "
+        "default: the scene's, presets: 002 Table 1's).", minimum=1, panel=RUN, record="particles_requested"),
+    Opt("frames", int, 100, "Frames to run (each: stress, normals, wind, fluvial, erosion, deposition).",
+        panel=RUN),
+    Opt("dt", float, 1000.0, "Time step of a frame (years; 002 Table 2: 1000).", parser=POSITIVE_YEARS,
+        panel=RUN, record="dt_years"),
+    SEED,
+    Opt("threads", int, None, "Numba threads (default: all cores); the result does not depend on it.",
+        minimum=1, panel=RUN, record=False),
+    Opt("substeps", int, 10, "Most MLS-MPM substeps per frame (fewer when the stress has converged; the "
+        "stress of a fast-changing rock lags with too few).", minimum=1, panel=RUN, record=False),
+    Opt("settle_substeps", int, 3000, "Most MLS-MPM substeps of the first frame (the settling from the "
+        "lithostatic guess).", minimum=1, panel=RUN, record=False),
+    Opt("tolerance", float, 2e-3, "The MPM has converged when the RMS grid speed is below this share of "
+        "gH/c_p (dimensionless).", parser=Number("", 0.0, above=True), panel=RUN, record=False),
+    _ablation("no_abrasion", "Ablation: no wind abrasion (002 Eq. 8)."),
+    _ablation("no_deflation", "Ablation: no wind deflation (002 Eq. 12)."),
+    _ablation("no_deposition", "Ablation: eroded particles leave the domain (002 §7 off)."),
+    _ablation("no_stress", "Ablation: no fabric interlocking (I = ∞, 002 Fig. 16)."),
+    _ablation("no_fluvial", "Ablation: no fluvial erosion (002 Eq. 14, Fig. 14)."),
+    Opt("precipitation", float, None, "Precipitation p on the top of the domain (m/y; default: the scene's, "
+        "0.25). Fluvial erosion needs a layer with --k-t > 0.", parser=Number("m/y", 0.0), panel=PROCESSES,
+        record=False),
+    Opt("sources", str, None, "Water source X,Y,Z,Q: a point (m, inside the domain) and its discharge Q "
+        "(m³/y); repeatable, added to the scene's.", flags=("--source",), kind="multiple",
+        parser=Numbers("X,Y,Z,Q (m, m and m³/y)", 4), panel=PROCESSES, record=False),
+    Opt("wind_azimuth", float, None, "Direction the storm wind comes from, degrees clockwise from north "
+        "(default: the scene's; 270 = from the west).", parser=Number("degrees", 0.0, 360.0),
+        panel=PROCESSES, record=False),
+    Opt("wind_elevation", float, None, "Elevation of the direction the wind comes from (degrees above the "
+        "horizon; default: the scene's, 0).", parser=Number("degrees", -90.0, 90.0), panel=PROCESSES,
+        record=False),
+    Opt("wind_speed", float, None, "Free wind speed U of abrasion (m/s; default: the scene's, 10).",
+        parser=Number("m/s", 0.0), panel=PROCESSES, record=False),
+    Opt("alpha", float, 1e6, "Rayleigh scale α of the normal drag of deflation (Pa; 002 Eq. 11-12 gives "
+        "none).", parser=Number("Pa", 0.0, above=True), panel=PROCESSES, record=False),
+    Opt("repose_angle", float, 33.0, "Angle of repose of deposits (degrees, 002 §7).",
+        parser=Number("degrees", 0.0, 89.9), panel=PROCESSES, record=False),
+    Opt("color_by", str, "layer", "Colour of preview.png: layer, stress (MPa) or viability.",
+        choices=COLOR_BY, panel=OUTPUTS, record=False),
+    Opt("top_format", str, "tif", "Format of the top heightfield: tif (GeoTIFF) or exr.", choices=TOP_FORMATS,
+        panel=OUTPUTS, record=False),
+    Opt("snapshot_every", int, 0, "Write the particles (snapshots/frame_NNNNN.ply) and the resumable state "
+        "(state.npz) every this many frames; 0: never.", minimum=0, panel=OUTPUTS, record=False),
+    Opt("mesh", Path, None, "Also write the closed surface mesh of the final particles, coloured by layer: "
+        "OUT.ply (binary) or OUT.obj (with vertex colours); needs scikit-image: pip install "
+        "'unerode-cli[mesh]'.", role="output", panel=OUTPUTS, record=False),
+    Opt("mesh_smoothing", int, 5, "Taubin smoothing iterations of --mesh (they keep the volume; 0: the raw "
+        "marching cubes).", minimum=0, panel=OUTPUTS, record=False),
+    Opt("resume", bool, False, "Continue OUT_DIR's run from its state.npz up to --frames (same scene and "
+        "options).", kind="flag", panel=OUTPUTS, record=False),
+    dataclasses.replace(BAND, help="Band of a multi-band DEM (1-based).", panel=RUN),
+    dataclasses.replace(CHANNEL, help="EXR channel of the DEM (default: Y).", panel=RUN),
+    OVERWRITE,
+) + parameter_options({LAYER_PANEL: LAYER_PARAMETERS, ROCK_PANEL: ROCK_PARAMETERS})

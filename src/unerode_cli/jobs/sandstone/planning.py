@@ -1,0 +1,191 @@
+"""The plan of a `sandstone` job: options checked, OUT_DIR's files cleared, the scene or DEM
+read, the simulation's parameters built, the provenance recorded and, with ``--resume``, the
+state of the run it continues read and matched; no particle is sampled here."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from unerode_cli.errors import InputError
+from unerode_cli.io.checkpoints import read_checkpoint
+from unerode_cli.io.json_files import to_json
+from unerode_cli.io.mesh_files import mesh_format
+from unerode_cli.io.paths import OutputPlan
+from unerode_cli.jobs.sandstone.options import ABLATIONS, COLOR_BY, TOP_FORMATS
+from unerode_cli.jobs.sandstone.source import Source
+from unerode_cli.sandstone.deflation import DeflationParams
+from unerode_cli.sandstone.deposition import DepositionParams
+from unerode_cli.sandstone.fluvial import FluvialParams
+from unerode_cli.sandstone.mpm import MpmParams
+from unerode_cli.sandstone.simulation import Processes, SimulationParams
+from unerode_cli.sandstone.wind import WindParams
+from unerode_cli.volume.mesh import MeshExtraMissing, marching_cubes_function
+
+if TYPE_CHECKING:
+    from unerode_cli.jobs.sandstone.job import SandstoneJob
+
+PARTICLES_FILE, FRAMES_FILE, RUN_FILE, STATE_FILE, PREVIEW_FILE = (
+    "particles.ply", "frames.csv", "run.json", "state.npz", "preview.png")
+SNAPSHOTS = "snapshots"
+
+
+@dataclass
+class PreparedSandstone:
+    """A checked job: the source, the simulation's parameters, OUT_DIR's files (``paths``: role →
+    path, all cleared on the output plan), the provenance and the state a ``--resume`` continues."""
+
+    job: SandstoneJob
+    source: Source
+    params: SimulationParams
+    paths: dict[str, Path]
+    provenance: dict[str, Any]
+    resume_state: dict[str, np.ndarray] | None = None
+
+
+def water_sources(job: SandstoneJob) -> tuple[tuple[float, float, float, float], ...]:
+    """The ``--source`` points (x, y, z in m) and discharges (m³/y)."""
+    return tuple((float(x), float(y), float(z), float(q)) for x, y, z, q in job.sources or ())
+
+
+def check_options(job: SandstoneJob) -> None:
+    """Refuse option values out of their range, before anything is read."""
+    for option, value, low in (("--frames", job.frames, 1), ("--particles", job.particles, 1),
+                               ("--threads", job.threads, 1), ("--substeps", job.substeps, 1),
+                               ("--settle-substeps", job.settle_substeps, 1),
+                               ("--snapshot-every", job.snapshot_every, 0),
+                               ("--mesh-smoothing", job.mesh_smoothing, 0)):
+        if value is not None and value < low:
+            raise InputError(f"{option} must be at least {low}, got {value}.")
+    if not (math.isfinite(job.dt) and job.dt > 0):
+        raise InputError(f"--dt must be a positive number of years, got {job.dt}.")
+    if not 0 <= job.seed < 2**63:
+        raise InputError(f"--seed must be an integer in [0, 2^63), got {job.seed}.")
+    if job.color_by not in COLOR_BY:
+        raise InputError(f"--color-by must be one of {', '.join(COLOR_BY)}, got '{job.color_by}'.")
+    if job.top_format not in TOP_FORMATS:
+        raise InputError(f"--top-format must be tif or exr, got '{job.top_format}'.")
+    if job.mesh is not None:
+        try:
+            mesh_format(job.mesh)
+            marching_cubes_function()
+        except (ValueError, MeshExtraMissing) as exc:
+            raise InputError(f"--mesh: {exc}.") from None
+    if job.resume and job.overwrite:
+        raise InputError("--resume continues OUT_DIR's run and --overwrite starts it afresh: "
+                         "give one of them.")
+
+
+def output_paths(job: SandstoneJob) -> dict[str, Path]:
+    """The files of OUT_DIR (and ``--mesh``), refused when one exists (without --overwrite or
+    --resume); nothing is created."""
+    out = job.out_dir
+    if out.exists() and not out.is_dir():
+        raise InputError(f"OUT_DIR {out} is a file, not a folder.")
+    if not out.parent.exists():
+        raise InputError(f"the folder of OUT_DIR {out} does not exist.")
+    paths = {"particles": out / PARTICLES_FILE, "top": out / f"top.{job.top_format}",
+             "preview": out / PREVIEW_FILE, "frames": out / FRAMES_FILE, "run": out / RUN_FILE,
+             "state": out / STATE_FILE}
+    if job.mesh is not None:
+        if not job.mesh.parent.exists():
+            raise InputError(f"the folder of --mesh {job.mesh} does not exist.")
+        paths["mesh"] = job.mesh
+    if not (job.overwrite or job.resume):
+        for path in [*paths.values(), out / SNAPSHOTS]:
+            if path.exists():
+                raise InputError(f"output {path} already exists; pass --overwrite to replace it "
+                                 "(or --resume to continue its run).")
+    return paths
+
+
+def snapshot_path(job: SandstoneJob, frame: int) -> Path:
+    """The particles of ``frame`` written with ``--snapshot-every``."""
+    return job.out_dir / SNAPSHOTS / f"frame_{frame:05d}.ply"
+
+
+def clear_outputs(job: SandstoneJob, paths: dict[str, Path], outputs: OutputPlan) -> None:
+    """Create OUT_DIR (and its snapshots folder) and clear every file the run may write on the
+    output plan: never an input, never a folder. Existing files were refused (or allowed by
+    --overwrite or --resume) by :func:`output_paths`."""
+    job.out_dir.mkdir(exist_ok=True)
+    if job.snapshot_every:
+        (job.out_dir / SNAPSHOTS).mkdir(exist_ok=True)
+    every = job.snapshot_every
+    snapshots = [snapshot_path(job, frame) for frame in range(every, job.frames + 1, every)] if every else []
+    for path in [*paths.values(), *snapshots]:
+        outputs.check_output(path, True)
+
+
+def simulation_params(job: SandstoneJob, source: Source) -> SimulationParams:
+    """The simulation's parameters: the options given, else the scene's (wind, water) or the
+    rock's (cohesion, friction, deposit viability)."""
+    wind, rock = source.wind, source.rock
+    try:
+        return SimulationParams(
+            dt=job.dt,
+            mpm=MpmParams(substeps=job.substeps, settle_substeps=job.settle_substeps,
+                          tolerance=job.tolerance),
+            wind=WindParams(azimuth=_given(job.wind_azimuth, wind.azimuth),
+                            elevation=_given(job.wind_elevation, wind.elevation),
+                            speed=_given(job.wind_speed, wind.speed),
+                            cone_angle=wind.cone_angle, rays=wind.rays),
+            deflation=DeflationParams(alpha=job.alpha, cohesion=rock.cohesion, friction=rock.friction),
+            deposition=DepositionParams(repose_angle=job.repose_angle,
+                                        deposit_viability=rock.deposit_viability),
+            fluvial=FluvialParams(precipitation=_given(job.precipitation, source.water.precipitation),
+                                  sources=source.water.source_tuples() + water_sources(job)),
+            processes=Processes(**{process: not getattr(job, flag) for flag, process in ABLATIONS.items()}))
+    except ValueError as exc:
+        raise InputError(f"{str(exc).rstrip('.')}.") from None
+
+
+def _given(value: float | None, default: float) -> float:
+    return default if value is None else value
+
+
+def provenance(job: SandstoneJob, source: Source, params: SimulationParams) -> dict[str, Any]:
+    """The job's recorded options and what the plan derived: the source, its lattice (m), the
+    layers, the rock and every process's parameters; the DEM's grid for an extruded DEM."""
+    lattice = source.lattice
+    record = {
+        **job.provenance(), "scene": source.description, "particles_expected": source.expected,
+        "lattice_spacing_m": lattice.spacing, "domain_low_m": lattice.low, "domain_size_m": lattice.size,
+        "mpm_cell_m": lattice.mpm_grid().h, "layers": [asdict(layer) for layer in source.layers.layers],
+        "deposit_layer": asdict(source.layers.deposit), "rock": asdict(source.rock),
+        "mpm": asdict(params.mpm), "wind": asdict(params.wind), "deflation": asdict(params.deflation),
+        "deposition": asdict(params.deposition), "fluvial": asdict(params.fluvial),
+        "processes": asdict(params.processes),
+    }
+    if source.dem is not None:
+        record["dem_transform"] = list(source.dem.transform)[:6]
+        record["dem_crs_wkt"] = source.dem.crs_wkt
+        record["coordinates"] = "x, y in m from the DEM's south-west corner; z in m"
+    return record
+
+
+def fingerprint(provenance: dict[str, Any]) -> str:
+    """What a resumed run must share with the run it continues (everything but the frame count)."""
+    return to_json({k: v for k, v in provenance.items() if k != "frames"})
+
+
+def resume_state(job: SandstoneJob, paths: dict[str, Path],
+                 provenance: dict[str, Any]) -> dict[str, np.ndarray]:
+    """The state of OUT_DIR's run (``state.npz``), refused when it is missing, was written with
+    other parameters or another seed, or has done ``--frames`` already."""
+    state_path = paths["state"]
+    if not state_path.is_file():
+        raise InputError(f"--resume needs {state_path}, written by a run with --snapshot-every; "
+                         "there is none.")
+    state = read_checkpoint(state_path)
+    if str(state["fingerprint"]) != fingerprint(provenance) or int(state["seed"]) != job.seed:
+        raise InputError(f"the run in {job.out_dir} had other parameters or another seed; resume it with "
+                         "the same scene and options (only --frames may change).")
+    if int(state["frame"]) >= job.frames:
+        raise InputError(f"the run in {job.out_dir} has already done {int(state['frame'])} frames; ask for "
+                         "more with --frames.")
+    return state
