@@ -12,7 +12,9 @@ from tests.cli.test_bad_input import assert_refused
 from tests.conftest import SHARED_DATA, run_cli, write_geotiff
 
 from unerode_cli.io.rasters import read_terrain
-from unerode_cli.jobs.climate_run import ClimateJob, plan, step_values
+from unerode_cli.jobs.climate_run.job import ClimateJob
+from unerode_cli.jobs.climate_run.plan import plan
+from unerode_cli.jobs.climate_run.steps import step_values
 
 LR04 = SHARED_DATA / "lr04" / "LR04stack.txt"
 SPRATT = SHARED_DATA / "sealevel" / "spratt2016.txt"
@@ -128,7 +130,7 @@ def test_parameter_rasters_survive_a_climate_run_scaled_per_phase(tmp_path: Path
     paths = {name: str(write_geotiff(tmp_path / f"{name}.tif", value)) for name, value in maps.items()}
     prepared = plan(ClimateJob(source=ramp, output=tmp_path / "p.tif", chronology=LR04,
                                sea_level_file=SPRATT, from_ka=0, to_ka=24, outlets="S",
-                               process="fluvial,thermal", parameter_values=paths))
+                               process="fluvial,thermal", **paths))
     phases = list(prepared.forcing.phase)
     glacial, interglacial = phases.index("glacial"), phases.index("interglacial")
     values, row = step_values(prepared, glacial)

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from tests.conftest import run_cli
 
-from unerode_cli.cli.pipeline_cmd import command_schemas
 from unerode_cli.errors import InputError
+from unerode_cli.pipeline.commands import schemas as command_schemas
 from unerode_cli.pipeline.spec import load_spec, parse_var_overrides, resolve
 
 GOOD = """\

@@ -89,11 +89,10 @@ def plain(value: Any) -> Any:
 
 
 def command(job_path: str, help: str, epilog: str | None = None,
-            options: tuple[Opt, ...] | None = None,
-            after: Callable[[Any, str, int], None] | None = None) -> Callable[..., None]:
+            options: tuple[Opt, ...] | None = None) -> Callable[..., None]:
     """A typer command for the job class ``module:Class`` (imported when the command runs;
-    ``options`` are its declarations, imported now). ``after(job, summary, verbosity)`` may
-    replace the default ending, which shows the summary on stderr."""
+    ``options`` are its declarations, imported now). The summary goes to stderr; a summary
+    that carries an exit code ends the command with it."""
     module_name, class_name = job_path.split(":")
     declarations = options if options is not None else _job_class(module_name, class_name).OPTIONS
     params = [parameter(opt) for opt in declarations]
@@ -105,14 +104,12 @@ def command(job_path: str, help: str, epilog: str | None = None,
     def run_command(**kwargs: Any) -> None:
         verbosity = kwargs.pop("verbose") - kwargs.pop("quiet")
         with reported_errors(verbosity) as outputs:
-            from unerode_cli.run.job import execute
+            from unerode_cli.pipeline.commands import run_job
 
             job_class = _job_class(module_name, class_name)
             job = job_class(**{name: plain(value) for name, value in kwargs.items()})
-            summary = execute(job, TerminalProgress(verbosity), outputs)
-            if after is not None:
-                after(job, summary, verbosity)
-            elif summary:
+            summary = run_job(job, TerminalProgress(verbosity), outputs)
+            if summary:
                 say(summary, verbosity, SUMMARY)
             if getattr(summary, "exit_code", 0):
                 raise typer.Exit(summary.exit_code)

@@ -1,24 +1,22 @@
-"""Parsers of option values (typer ``parser=``) and the command class that reports their errors.
+"""Option values on the command line: the declared parsers (:mod:`unerode_cli.run.values`)
+as typer ``parser=`` callables, and the command class that reports their errors.
 
-A value is checked when the command line is parsed, before a job plans anything, and
-``pipeline run`` checks a spec's values with the same parsers before its first step. Each
-parser's ``parse(value)`` returns the value or raises ValueError with the end of a sentence
-("must be > 0 years, got '-5'"); calling the parser, as typer does, turns that into a
-``BadParameter`` naming the option, which :class:`Command` reports as one line, exit code 2.
+A value is checked when the command line is parsed, before a job plans anything (``pipeline
+run`` checks a spec's values with the same parsers before its first step). A parser's
+ValueError becomes a ``BadParameter`` naming the option, which :class:`Command` reports as one
+line, exit code 2.
 """
 
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
 from typing import Any
 
 import typer
 from typer.core import TyperCommand
 
 from unerode_cli.cli.errors import EXIT_BAD_INPUT
-from unerode_cli.run import values
-from unerode_cli.run.values import OptionParser, finite_number, unit_suffix  # noqa: F401
+from unerode_cli.run.values import OptionParser
 
 
 class Command(TyperCommand):
@@ -33,17 +31,6 @@ class Command(TyperCommand):
             raise typer.Exit(EXIT_BAD_INPUT) from None
 
 
-class TyperParser:
-    """Mixin: calling the parser, as typer does, turns its ValueError into a BadParameter that
-    names the option (reported by :class:`Command`)."""
-
-    def __call__(self, value: Any) -> Any:
-        try:
-            return self.parse(value)  # type: ignore[attr-defined]
-        except ValueError as exc:
-            raise typer.BadParameter(str(exc)) from None
-
-
 def for_typer(parser: OptionParser) -> Any:
     """``parser`` as a typer ``parser=`` callable."""
 
@@ -54,18 +41,3 @@ def for_typer(parser: OptionParser) -> Any:
             raise typer.BadParameter(str(exc)) from None
 
     return parse
-
-
-@dataclass(frozen=True)
-class Number(TyperParser, values.Number):
-    """:class:`unerode_cli.run.values.Number` for typer."""
-
-
-@dataclass(frozen=True)
-class Numbers(TyperParser, values.Numbers):
-    """:class:`unerode_cli.run.values.Numbers` for typer."""
-
-
-@dataclass(frozen=True)
-class ParameterValue(TyperParser, values.ParameterValue):
-    """:class:`unerode_cli.run.values.ParameterValue` for typer."""

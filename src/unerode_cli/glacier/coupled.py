@@ -590,13 +590,15 @@ class RunResult:
 
 def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times: Sequence[float],
         on_step: Callable[[GlacierState, StepReport], None] | None = None,
-        check: Callable[[GlacierState, StepReport, int], None] | None = None,
+        check: Callable[[GlacierState, StepReport, int], bool | None] | None = None,
         after: Callable[[GlacierState, float], GlacierState] | None = None,
         result: RunResult | None = None) -> RunResult:
     """Step ``state`` to each of the end ``times`` (y, increasing, e.g. ``step_times``) in turn,
     calling ``on_step(new_state, report)`` at each of them (progress, snapshots), and
     ``check(new_state, report, k)`` after every step k (1, 2, …) taken, ramp steps included
-    (e.g. a divergence guard that raises, so that a run stops at the step where it diverges).
+    (e.g. a divergence guard that raises, so that a run stops at the step where it diverges);
+    when ``check`` returns True the run ends there (e.g. cancelled, or a step budget spent), and
+    the result holds the steps taken so far.
     ``after(state, dt)``, when given, follows every glacier step of length dt with other
     processes and returns the state they leave (``cycle.IceFreeErosion``).
 
@@ -616,9 +618,10 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
     timed_before = sum(result.seconds.values())
     cap = result.cap
     ramp = params.transport == "multiscale"
+    stop = False
     for end in times:
         end = float(end)
-        while state.time < end:
+        while state.time < end and not stop:
             if ramp and not np.any(state.thickness[grid.valid] > 0):
                 cap = RAMP_START
             length = min(end - state.time, cap)
@@ -640,8 +643,9 @@ def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times:
             result.add(state, report)
             cap *= RAMP_FACTOR
             result.cap = cap
-            if check is not None:
-                check(state, report, result.steps)
+            stop = check is not None and bool(check(state, report, result.steps))
+        if stop:
+            break
         if on_step is not None:
             on_step(state, report)
     timed = sum(result.seconds.values()) - timed_before

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -36,3 +37,31 @@ def read_checkpoint(path: Path) -> dict[str, np.ndarray]:
     """Every array of a checkpoint written by :func:`write_checkpoint` (no pickles)."""
     with np.load(path, allow_pickle=False) as saved:
         return {name: saved[name] for name in saved.files}
+
+
+#: Key of a state checkpoint's JSON part (numbers, text, lists and mappings of them).
+_JSON_KEY = "state.json"
+
+
+def write_state_checkpoint(path: Path, fingerprint: str, step: int, state: dict[str, object]) -> None:
+    """Save a run after ``step`` steps: its ``fingerprint``, and ``state`` — NumPy arrays as
+    arrays, every other value (numbers, text, lists and mappings of them) as one JSON text,
+    whose floats keep every bit (``repr``)."""
+    arrays = {f"array.{name}": value for name, value in state.items() if isinstance(value, np.ndarray)}
+    rest = {name: value for name, value in state.items() if not isinstance(value, np.ndarray)}
+    write_checkpoint(path, fingerprint=fingerprint, step=step, **{_JSON_KEY: json.dumps(rest)}, **arrays)
+
+
+def read_state_checkpoint(path: Path) -> tuple[str, int, dict[str, object]]:
+    """(fingerprint, step, state) of a checkpoint written by :func:`write_state_checkpoint`;
+    InputError when the file is not one."""
+    try:
+        saved = read_checkpoint(path)
+        state: dict[str, object] = json.loads(str(saved[_JSON_KEY]))
+        fingerprint, step = str(saved["fingerprint"]), int(saved["step"])
+    except (OSError, KeyError, ValueError) as exc:
+        raise InputError(f"the checkpoint {path} cannot be read ({exc}); run without --resume.") from None
+    for key, value in saved.items():
+        if key.startswith("array."):
+            state[key[len("array."):]] = np.array(value)
+    return fingerprint, step, state

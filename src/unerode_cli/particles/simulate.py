@@ -116,6 +116,7 @@ class ParticleRun:
         stats: particle and impact counts.
         paths: the sampled paths, in particle order.
         kinds: what each kind of particles did (one entry per kind of ``run_kinds``).
+        iterations: the iterations run (fewer than asked when the run was cancelled).
     """
 
     terrain: Terrain
@@ -125,6 +126,7 @@ class ParticleRun:
     stats: ParticleStats
     paths: list[ParticlePath]
     kinds: tuple[KindRun, ...] = ()
+    iterations: int = 0
 
 
 @dataclass(frozen=True)
@@ -374,9 +376,11 @@ class _Batches:
 
 def run_kinds(terrain: Terrain, kinds: Sequence[ParticleKind], *, iterations: int = 1, seed: int = 0,
               sea_level: float | None = None, paths: int = 0, path_stride: int = 1,
-              on_iteration: Callable[[int], None] | None = None, apply: str = PER_ITERATION) -> ParticleRun:
+              on_iteration: Callable[[int], None] | None = None, apply: str = PER_ITERATION,
+              cancelled: Callable[[], bool] | None = None) -> ParticleRun:
     """Erode ``terrain`` with several kinds of particles at once (003 Fig. 8); ``run``'s
-    arguments otherwise.
+    arguments otherwise. ``cancelled`` is asked before each iteration: when it says True the
+    run ends there and returns what the iterations before did (``ParticleRun.iterations``).
 
     Each iteration traces the kinds in their order, each against the terrain as it stood at
     the start of the iteration (one frozen snapshot per distinct K_ε, τ_c of the kinds), and
@@ -402,7 +406,10 @@ def run_kinds(terrain: Terrain, kinds: Sequence[ParticleKind], *, iterations: in
     chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
     work = terrain.copy()
     batches = _Batches(work, chosen, per_iteration, path_stride)
+    done = 0
     for iteration in range(iterations):
+        if cancelled is not None and cancelled():
+            break
         snapshots: dict[tuple[float, float], TracingSnapshot] = {}
         for tracer in tracers:  # all taken before any kind alters the terrain
             if apply == PER_ITERATION and tracer.material_key not in snapshots:
@@ -415,13 +422,14 @@ def run_kinds(terrain: Terrain, kinds: Sequence[ParticleKind], *, iterations: in
                 work.absorb(snap, live)
             else:
                 batches.run(tracer, snapshots[tracer.material_key], iteration)
+        done = iteration + 1
         if on_iteration is not None:
-            on_iteration(iteration + 1)
+            on_iteration(done)
     new_surface = work.surface()
     dh = np.where(grid.valid, new_surface - terrain.surface(), 0.0)
-    by_kind = tuple(KindRun(t.kind.name, _budget(t.sums), _stats(iterations * t.count, t.impacts, t.fates))
+    by_kind = tuple(KindRun(t.kind.name, _budget(t.sums), _stats(done * t.count, t.impacts, t.fates))
                     for t in tracers)
     fates = np.sum([t.fates for t in tracers], axis=0)
-    stats = _stats(total, sum(t.impacts for t in tracers), fates)
+    stats = _stats(done * per_iteration, sum(t.impacts for t in tracers), fates)
     budget = _budget([batch for t in tracers for batch in t.sums])
-    return ParticleRun(work, new_surface, dh, budget, stats, batches.paths, by_kind)
+    return ParticleRun(work, new_surface, dh, budget, stats, batches.paths, by_kind, done)

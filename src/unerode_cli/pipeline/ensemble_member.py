@@ -1,6 +1,6 @@
 """One member of an ensemble, as a dask worker runs it: its pipeline in its own emptied folder,
-through the ``executor`` the command layer gives (the steps run in the worker's process, no
-shell), ``member.json`` first, what the steps print kept in ``member.log``, and the done marker
+each step a job run in the worker's process (no shell, no change of folder), ``member.json``
+first, what the steps print kept in ``member.log``, and the done marker
 ``done.json`` last when every step succeeded (the files are those of
 :mod:`unerode_cli.io.ensemble_files`). A failing step is reported in the :class:`Outcome`, not
 raised: the other members go on. Kept apart from the planning and the summary so that a worker
@@ -64,7 +64,7 @@ def member_record(member: Member) -> dict[str, Any]:
     return {"index": member.index, "parameters": member.parameters}
 
 
-def run_member(member: Member, executor: Executor, verbosity: int = 0) -> Outcome:
+def run_member(member: Member, verbosity: int = 0, executor: Executor | None = None) -> Outcome:
     """Run one member's pipeline in its emptied folder (in a dask worker): ``member.json``
     first, ``member.log`` after, ``done.json`` last when every step succeeded."""
     assert member.pipeline is not None

@@ -17,7 +17,7 @@ import contextlib
 import functools
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +37,11 @@ from unerode_cli.io.ensemble_files import (
     write_rows,
 )
 from unerode_cli.io.json_files import jsonable
-from unerode_cli.io.paths import file_sha256
+from unerode_cli.io.paths import OutputPlan, file_sha256
 from unerode_cli.jobs.ensemble import MemberResult, SummaryJob, summarise
+from unerode_cli.pipeline.commands import schemas
 from unerode_cli.pipeline.ensemble_member import Member, Outcome, is_done, member_record, run_member
+from unerode_cli.pipeline.ensemble_options import OPTIONS
 from unerode_cli.pipeline.ensemble_spec import (
     load_ensemble_spec,
     member_pipeline,
@@ -47,8 +49,9 @@ from unerode_cli.pipeline.ensemble_spec import (
     parse_sweep,
     sweep_targets,
 )
-from unerode_cli.pipeline.pipeline_run import Executor
-from unerode_cli.pipeline.spec import CommandSchema, resolve
+from unerode_cli.pipeline.spec import CommandSchema, parse_var_overrides, resolve
+from unerode_cli.run.declare import declared
+from unerode_cli.run.job import Job, Progress, Summary, execute
 
 #: Raster outputs of members that the summary reads (their statistics per snapshot age).
 RASTER_SUFFIXES = (".tif", ".tiff", ".exr")
@@ -56,18 +59,38 @@ RASTER_SUFFIXES = (".tif", ".tiff", ".exr")
 SCORING_COMMAND = "compare-terraces"
 
 
-@dataclass(frozen=True)
-class EnsembleJob:
-    """What the user asked for (``members``: the Latin hypercube samples, for sampled sweeps)."""
+@declared("ensemble", OPTIONS)
+class EnsembleJob(Job):
+    """Run a pipeline spec once per member of a parameter sweep, on dask.distributed
+    (``members``: the Latin hypercube samples, for sampled sweeps)."""
 
-    spec: Path
-    out_dir: Path
-    members: int | None = None
-    seed: int = 0
-    variables: dict[str, str] = field(default_factory=dict)
-    resume: bool = False
-    overwrite: bool = False
-    engine: Engine = Engine()
+    @property
+    def variables(self) -> dict[str, str]:
+        """The ``--var`` values (name → text)."""
+        return parse_var_overrides(self.var or [])
+
+    @property
+    def engine(self) -> Engine:
+        return Engine(self.scheduler, self.workers, self.threads_per_worker, self.retries,
+                      self.scheduler_timeout)
+
+    def plan(self, outputs: OutputPlan) -> EnsemblePlan:
+        if self.resume and self.overwrite:
+            raise InputError("--resume keeps the finished members and --overwrite reruns them all; give one.")
+        outputs.read(self.spec)
+        return plan_ensemble(self, schemas())
+
+    def run(self, planned: EnsemblePlan, progress: Progress) -> EnsembleResult:
+        return run_ensemble(planned, progress.verbosity, on_note=progress.note)
+
+    def write(self, result: EnsembleResult, outputs: OutputPlan) -> str:
+        text = result.summary
+        if self.report:
+            from unerode_cli.jobs.report.job import REPORT_NAME, ReportJob
+
+            report = ReportJob(run_dir=self.out_dir, output=self.out_dir / REPORT_NAME, overwrite=True)
+            text = f"{execute(report)}\n{text}"
+        return Summary(text, exit_code=1 if result.failed else 0)
 
 
 @dataclass(frozen=True)
@@ -143,7 +166,7 @@ def _check_out_dir(job: EnsembleJob, record: dict[str, Any]) -> None:
                          "to run every member again.")
 
 
-def run_ensemble(plan: EnsemblePlan, executor: Executor, verbosity: int = 0,
+def run_ensemble(plan: EnsemblePlan, verbosity: int = 0,
                  on_note: Callable[[str], None] = lambda text: None) -> EnsembleResult:
     """Run every member not finished yet, write failures.csv, then the summary. Nothing is
     written before the engine answers."""
@@ -181,7 +204,7 @@ def run_ensemble(plan: EnsemblePlan, executor: Executor, verbosity: int = 0,
                 + (f", {len(done)} finished earlier" if done else "")
                 + (f", {unresolved} that do not resolve" if unresolved else ""))
         if cluster is not None:
-            cluster.run(pending, functools.partial(run_member, executor=executor, verbosity=verbosity), heard)
+            cluster.run(pending, functools.partial(run_member, verbosity=verbosity), heard)
     ordered = [outcomes[m.index] for m in plan.members]
     failed = [o for o in ordered if not o.finished]
     write_rows(job.out_dir / FAILURES_FILE, ["member", "folder", "step", "error"],

@@ -158,10 +158,15 @@ def member_pipeline(spec: PipelineSpec, spec_path: Path, schemas: Mapping[str, C
 
 def _moved(step: ResolvedStep, base: Path, written: Mapping[Path, Path]) -> ResolvedStep:
     """``step`` run from a member's folder: the files it reads but no step writes become
-    absolute paths in its command line; what steps write moves into the folder."""
+    absolute paths in its values and command line; what steps write moves into the folder."""
     read = {p for p in step.inputs if p not in written}
     argv = [_absolute_if_read(token, base, read) for token in step.argv]
-    return dataclasses.replace(step, argv=argv, inputs=[written.get(p, p) for p in step.inputs],
+    values = {name: [_absolute_if_read(v, base, read) if isinstance(v, str) else v for v in value]
+              if isinstance(value, list) else
+              _absolute_if_read(value, base, read) if isinstance(value, str) else value
+              for name, value in step.values.items()}
+    return dataclasses.replace(step, argv=argv, values=values,
+                               inputs=[written.get(p, p) for p in step.inputs],
                                outputs=[written[p] for p in step.outputs])
 
 

@@ -1,9 +1,11 @@
-"""Run a resolved pipeline: one subprocess per step, a state file, ``--resume`` and dry runs.
+"""Run a resolved pipeline: each step a job in this process, a state file, ``--resume`` and
+dry runs.
 
-**Isolation.** Each step runs as ``sys.executable -m unerode_cli SUBCOMMAND ...`` in the
-workdir, with the pipeline's stdout and stderr (its messages stream as it runs) and its real
-exit code. A caller may pass another ``executor`` (``ARGV, WORKDIR → exit code``), e.g. one
-that runs the command in this process, as the members of an ensemble do.
+**Steps are jobs.** Each step is built as its subcommand's job from the step's values through
+the same declarations as the command line, relative paths taken from the workdir (no change of
+folder, no command line parsed), and run by the job executor with its own output plan
+(:func:`unerode_cli.pipeline.commands.run_step`): its notes and summary go to stderr, bad input
+gives exit code 2, a failure 1. The run log shows each step's equivalent command line.
 
 **State file.** ``.<spec-stem>.state.json`` in the workdir, rewritten atomically after each
 change. It holds, per finished step, a key (sha256 of the subcommand and its resolved command
@@ -31,10 +33,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import shlex
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -49,8 +48,9 @@ from unerode_cli.pipeline.spec import ResolvedPipeline, ResolvedStep
 
 STATE_VERSION = 1
 
-#: Runs ``unerode-cli ARGV`` in the folder WORKDIR and returns its exit code.
-Executor = Callable[[list[str], Path], int]
+#: Runs one step (its subcommand, job values and workdir, with a verbosity) and returns its
+#: exit code.
+Executor = Callable[[str, dict[str, Any], Path, int], int]
 
 
 class StepFailed(Exception):
@@ -166,6 +166,17 @@ def command_line(step: ResolvedStep, verbosity: int = 0) -> list[str]:
     return argv
 
 
+def job_values(step: ResolvedStep, verbosity: int = 0) -> tuple[dict[str, Any], int]:
+    """The values that build the step's job for this run (``overwrite`` as in
+    :func:`command_line`) and the step's verbosity (the pipeline's, plus the step's own
+    ``verbose``/``quiet``)."""
+    values = dict(step.values)
+    own = int(values.pop("verbose", 0) or 0) - int(values.pop("quiet", 0) or 0)
+    if step.has_overwrite and (step.overwrite_given or any(p.exists() for p in step.outputs)):
+        values["overwrite"] = True
+    return values, verbosity + own
+
+
 def shown(argv: list[str]) -> str:
     """A command line as the run log and a dry run show it."""
     return shlex.join(["unerode-cli", *argv])
@@ -193,9 +204,11 @@ def dry_run(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0) -> lis
 def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
                  note: Callable[[str], None] = lambda text: None,
                  executor: Executor | None = None) -> Report:
-    """Run (or skip) every step in order, each through ``executor`` (default: a child
+    """Run (or skip) every step in order, each through ``executor`` (default: its job in this
     process); raises :class:`StepFailed` at the first failure."""
-    execute = executor or _execute
+    from unerode_cli.pipeline.commands import run_step
+
+    execute = executor or run_step
     state = State.load(pipeline.state_path)
     check_outputs(pipeline, state)
     if not pipeline.workdir.is_dir():
@@ -217,8 +230,8 @@ def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
         state.owned.update(_rel(p, pipeline.workdir) for p in step.outputs)
         state.save()
         started = time.monotonic()
-        code = execute(argv, pipeline.workdir)
-        check_output(pipeline.state_path, overwrite=True)  # a step run in this process cleared its own
+        values, step_verbosity = job_values(step, verbosity)
+        code = execute(step.command, values, pipeline.workdir, step_verbosity)
         if code != 0:
             raise StepFailed(step.name, step.command, code)
         missing = [_rel(p, pipeline.workdir) for p in step.outputs if not p.exists()]
@@ -234,14 +247,3 @@ def run_pipeline(pipeline: ResolvedPipeline, resume: bool, verbosity: int = 0,
         report.ran.append(step.name)
         note(f"{tag}: done in {time.monotonic() - started:.1f} s")
     return report
-
-
-def _execute(argv: list[str], workdir: Path) -> int:
-    """Run ``unerode-cli ARGV`` in ``workdir`` as a child process; its exit code."""
-    env = dict(os.environ)
-    env.setdefault("PYTHONUNBUFFERED", "1")
-    sys.stdout.flush()
-    sys.stderr.flush()
-    completed = subprocess.run([sys.executable, "-m", "unerode_cli", *argv], cwd=workdir, env=env,
-                               check=False)
-    return completed.returncode

@@ -1,6 +1,7 @@
 """Pipeline specs (YAML): the model, variable substitution and validation before any step runs.
 
-A spec chains subcommands of ``unerode-cli``; each step is run as its own process::
+A spec chains subcommands of ``unerode-cli``; each step is built as the subcommand's job from
+its values and run in the pipeline's process (see ``pipeline_run``)::
 
     version: 1
     vars:                      # name -> string, number or boolean; `--var NAME=VALUE` overrides
@@ -40,8 +41,8 @@ path options it is given (``--preview``, ``--change-map``), then its explicit ``
 list. ``${steps.NAME.output}`` is the first of them, written as the spec gave it; ``NAME``
 must be an earlier step. ``overwrite: true`` lets a step replace a file that this pipeline did
 not write; otherwise the runner decides when to pass ``--overwrite`` (see ``pipeline_run``).
-Which parameters are output paths is told by the command layer
-(:class:`CommandSchema`), so this module knows nothing of click or typer.
+Which parameters are output paths is told by the jobs' declarations
+(:class:`CommandSchema`, built by :mod:`unerode_cli.pipeline.commands`).
 
 **Validation** raises :class:`~unerode_cli.errors.InputError` (exit code 2) naming the step and
 the field (``step 'past' (options.dt): ...``) for: an unknown subcommand or option, a value of
@@ -69,7 +70,7 @@ _REFERENCE = re.compile(r"\$(\$?)\{([^}]*)\}")
 
 
 # ---------------------------------------------------------------------------------------------
-# What the command layer tells us about each subcommand (built from click, passed in).
+# What the jobs' declarations tell us about each subcommand (see pipeline.commands).
 
 @dataclass(frozen=True)
 class ParamSchema:
@@ -192,7 +193,10 @@ def _union_member(part: object) -> bool:
 
 @dataclass
 class ResolvedStep:
-    """A step ready to run: ``argv`` follows ``unerode-cli``; paths are absolute."""
+    """A step ready to run: ``values`` (field name → checked text, flag or list, as the spec
+    gave them; relative paths are relative to the workdir) build its job; ``argv`` (after
+    ``unerode-cli``) is its equivalent command line, for logs and for the step's key;
+    ``inputs`` and ``outputs`` are absolute."""
 
     name: str
     command: str
@@ -203,6 +207,7 @@ class ResolvedStep:
     has_overwrite: bool
     has_verbosity: bool
     produced_by: set[str] = field(default_factory=set)
+    values: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -334,8 +339,9 @@ class _Resolver:
         argv: list[str] = [schema.name]
         outputs_written: list[str] = []
         inputs: list[tuple[str, str, bool]] = []     # (text, field, required to exist)
-        argv_args = self._arguments(step, schema, sub, outputs_written, inputs)
-        argv_opts, overwrite = self._options(step, schema, sub, outputs_written, inputs)
+        values: dict[str, Any] = {}
+        argv_args = self._arguments(step, schema, sub, outputs_written, inputs, values)
+        argv_opts, overwrite = self._options(step, schema, sub, outputs_written, inputs, values)
         argv += argv_args + argv_opts
         for i, out in enumerate(step.outputs):
             outputs_written.append(str(sub(out, f"outputs[{i}]")))
@@ -363,9 +369,10 @@ class _Resolver:
         self.primary[step.name] = outputs_written[0] if outputs_written else None
         return ResolvedStep(step.name, schema.name, argv, _unique(input_paths), output_paths,
                             overwrite, "overwrite" in schema.options,
-                            "verbose" in schema.options and "quiet" in schema.options, produced_by)
+                            "verbose" in schema.options and "quiet" in schema.options, produced_by,
+                            values)
 
-    def _arguments(self, step, schema, sub, outputs_written, inputs) -> list[str]:
+    def _arguments(self, step, schema, sub, outputs_written, inputs, values) -> list[str]:
         who = f"step '{step.name}'"
         variadic = any(a.kind == "multiple" for a in schema.arguments)
         needed = sum(1 for a in schema.arguments if a.required)
@@ -383,9 +390,13 @@ class _Resolver:
             text = _check_value(sub(raw, where), param, f"{who} ({where})")
             self._note_path(text, param, where, outputs_written, inputs)
             argv.append(text)
+            if param.kind == "multiple":
+                values.setdefault(param.name, []).append(text)
+            else:
+                values[param.name] = text
         return argv
 
-    def _options(self, step, schema, sub, outputs_written, inputs) -> tuple[list[str], bool]:
+    def _options(self, step, schema, sub, outputs_written, inputs, values) -> tuple[list[str], bool]:
         who = f"step '{step.name}'"
         argv: list[str] = []
         seen: dict[str, str] = {}
@@ -406,13 +417,15 @@ class _Resolver:
                 if param.name == "overwrite":
                     overwrite = on
                     continue        # the runner passes --overwrite itself (see pipeline_run)
+                values[param.name] = on
                 if on:
                     argv.append(flag)
                 elif param.off_flags:
                     argv.append(param.off_flags[0])
             elif param.kind == "count":
                 value = sub(raw, where) if not isinstance(raw, list) else raw
-                argv += [flag] * _check_count(value, context)
+                values[param.name] = _check_count(value, context)
+                argv += [flag] * values[param.name]
             elif param.kind == "multiple":
                 items = raw if isinstance(raw, list) else [raw]
                 for j, item in enumerate(items):
@@ -420,12 +433,14 @@ class _Resolver:
                     text = _check_value(sub(item, field_name), param, f"{who} ({field_name})")
                     self._note_path(text, param, field_name, outputs_written, inputs)
                     argv += [flag, text]
+                    values.setdefault(param.name, []).append(text)
             else:
                 if isinstance(raw, list):
                     raise InputError(f"{context}: --{key.lstrip('-')} takes one value, got a list.")
                 text = _check_value(sub(raw, where), param, context)
                 self._note_path(text, param, where, outputs_written, inputs)
                 argv += [flag, text]
+                values[param.name] = text
         return argv, overwrite
 
     def _note_path(self, text: str, param: ParamSchema, where: str,

@@ -171,6 +171,8 @@ class Opt:
             return [self.long_flag] * int(value or 0)
         if value is None or (value == self.default and not self.required):
             return []
+        if self.kind != "multiple":
+            return [self.long_flag, _word(value)]
         words: list[str] = []
         for item in _items(value):
             words += [self.long_flag, _word(item)]

@@ -18,12 +18,25 @@ A run that fails (:class:`~unerode_cli.errors.RunFailure`) keeps none of the fil
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from typing import Any, ClassVar
 
 from unerode_cli.errors import RunFailure
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.run.declare import Opt, command_line, provenance
+
+
+class Summary(str):
+    """A job's one-line summary with the exit code its front door should end with (0 unless
+    the job says otherwise, e.g. an ensemble some of whose members failed)."""
+
+    exit_code: int
+
+    def __new__(cls, text: str, exit_code: int = 0) -> Summary:
+        summary = super().__new__(cls, text)
+        summary.exit_code = exit_code
+        return summary
 
 
 class Progress:
@@ -60,6 +73,37 @@ class Progress:
     def cancelled(self) -> bool:
         """Whether the job should stop at the end of the current step."""
         return bool(self._cancel and self._cancel())
+
+
+class StreamProgress(Progress):
+    """Progress as lines on stderr, for jobs run inside a pipeline or an ensemble member: notes
+    unless ``verbosity`` < 0, one line per step and details with ``verbosity`` ≥ 1; data on
+    stdout."""
+
+    def __init__(self, verbosity: int = 0, cancel: Callable[[], bool] | None = None) -> None:
+        super().__init__(cancel, verbosity)
+        self._label, self._total, self._done = "", 0.0, 0
+
+    def start(self, total: float, label: str, unit: str = "steps") -> None:
+        self._label, self._total, self._done = label, total, 0
+
+    def advance(self, info: str = "", done: float | None = None) -> None:
+        self._done += 1
+        if self.verbosity >= 1:
+            where = (f"{done:,.0f}/{self._total:,.0f} y" if done is not None
+                     else f"{self._done}/{self._total:g}")
+            print(f"{self._label} {where}{': ' + info if info else ''}", file=sys.stderr)
+
+    def note(self, text: str) -> None:
+        if self.verbosity >= 0:
+            print(text, file=sys.stderr)
+
+    def detail(self, text: str) -> None:
+        if self.verbosity >= 1:
+            print(text, file=sys.stderr)
+
+    def data(self, text: str) -> None:
+        print(text)
 
 
 class Job:

@@ -86,6 +86,58 @@ def substeps_needed(dt: float, stable: float) -> int:
     return max(1, math.ceil(abs(dt) / stable * (1.0 - 1e-12)))
 
 
+class StepApplier:
+    """Applies the processes' changes one step at a time, keeping across steps what a run
+    keeps: the report (steps, sub-steps, budgets) and which sub-stepping notes were given.
+
+    Within a step the processes are applied one after the other (operator splitting); each is
+    sub-stepped when its stable time step is shorter than ``dt`` (a note is given once per
+    process), or, with ``allow_substeps`` False or more than ``MAX_SUBSTEPS`` sub-steps, the
+    run is refused (InputError). ``guard`` checks the elevation after each step and stops a
+    diverging run (RunFailure)."""
+
+    def __init__(self, processes: Sequence[Process], dt: float, allow_substeps: bool = True,
+                 on_note: Callable[[str], None] | None = None, guard: DivergenceGuard | None = None,
+                 steps: int = 1) -> None:
+        if dt == 0.0 or not math.isfinite(dt):
+            raise InputError("the time step must be a non-zero number of years.")
+        self.processes, self.dt, self.allow_substeps = processes, dt, allow_substeps
+        self.on_note, self.guard, self.steps = on_note, guard, steps
+        self.report = RunReport(substeps={p.name: 0 for p in processes},
+                                budgets={p.name: Budget() for p in processes})
+        self.noted: set[str] = set()
+
+    def step(self, h: np.ndarray, i: int) -> None:
+        """Advance ``h`` (m, changed in place) by step ``i`` (1-based)."""
+        dt = self.dt
+        for process in self.processes:
+            n_sub = substeps_needed(dt, process.stable_dt(h, dt))
+            if n_sub > MAX_SUBSTEPS:
+                raise InputError(
+                    f"a time step of {abs(dt):g} years would need {float(n_sub):.3g} {process.name} "
+                    f"sub-steps (stable: ≤ {abs(dt) / n_sub:.4g} years); lower --dt.")
+            if n_sub > 1 and not self.allow_substeps:
+                raise InputError(
+                    f"the {process.name} time step of {abs(dt):g} years is unstable here "
+                    f"(stable: ≤ {abs(dt) / n_sub:.4g} years); lower --dt or allow sub-steps."
+                )
+            if n_sub > 1 and process.name not in self.noted and self.on_note is not None:
+                at = f" at step {i}" if self.steps > 1 else ""
+                self.on_note(f"note: {process.name} is sub-stepped ({n_sub} sub-steps of "
+                             f"{abs(dt) / n_sub:.4g} years{at}) to stay stable (CFL).")
+                self.noted.add(process.name)
+            for _ in range(n_sub):
+                change = process.advance(h, dt / n_sub)
+                h += change.dh
+                self.report.budgets[process.name].add(change.eroded, change.deposited, change.outflux,
+                                                      change.inflow)
+            self.report.substeps[process.name] += n_sub
+        self.report.steps = i
+        elapsed = self.report.elapsed_years = i * dt
+        if self.guard is not None:
+            self.guard.check(h, elapsed, f"in step {i} (t = {elapsed:g} y)")
+
+
 def run(
     elevation: np.ndarray,
     processes: Sequence[Process],
@@ -96,48 +148,13 @@ def run(
     on_note: Callable[[str], None] | None = None,
     guard: DivergenceGuard | None = None,
 ) -> tuple[np.ndarray, RunReport]:
-    """Advance ``elevation`` (m) by ``steps`` steps of ``dt`` years through ``processes``.
-
-    Within a step the processes are applied one after the other (operator splitting); each is
-    sub-stepped when its stable time step is shorter than ``dt`` (a note is given once per
-    process), or, with ``allow_substeps`` False or more than ``MAX_SUBSTEPS`` sub-steps, the
-    run is refused (InputError). ``guard`` checks the elevation after each step and stops a
-    diverging run (RunFailure) before ``on_step(i, h)`` is called after step i (1-based). The
-    input array is not modified.
-    """
-    if dt == 0.0 or not math.isfinite(dt):
-        raise InputError("the time step must be a non-zero number of years.")
+    """Advance ``elevation`` (m) by ``steps`` steps of ``dt`` years through ``processes``
+    (:class:`StepApplier`); ``on_step(i, h)`` is called after step i (1-based). The input
+    array is not modified."""
     h = np.array(elevation, dtype=np.float64, copy=True)
-    report = RunReport(substeps={p.name: 0 for p in processes},
-                       budgets={p.name: Budget() for p in processes})
-    noted: set[str] = set()
+    applier = StepApplier(processes, dt, allow_substeps, on_note, guard, steps)
     for i in range(1, steps + 1):
-        for process in processes:
-            n_sub = substeps_needed(dt, process.stable_dt(h, dt))
-            if n_sub > MAX_SUBSTEPS:
-                raise InputError(
-                    f"a time step of {abs(dt):g} years would need {float(n_sub):.3g} {process.name} "
-                    f"sub-steps (stable: ≤ {abs(dt) / n_sub:.4g} years); lower --dt.")
-            if n_sub > 1 and not allow_substeps:
-                raise InputError(
-                    f"the {process.name} time step of {abs(dt):g} years is unstable here "
-                    f"(stable: ≤ {abs(dt) / n_sub:.4g} years); lower --dt or allow sub-steps."
-                )
-            if n_sub > 1 and process.name not in noted and on_note is not None:
-                at = f" at step {i}" if steps > 1 else ""
-                on_note(f"note: {process.name} is sub-stepped ({n_sub} sub-steps of "
-                        f"{abs(dt) / n_sub:.4g} years{at}) to stay stable (CFL).")
-                noted.add(process.name)
-            for _ in range(n_sub):
-                change = process.advance(h, dt / n_sub)
-                h += change.dh
-                report.budgets[process.name].add(change.eroded, change.deposited, change.outflux,
-                                                 change.inflow)
-            report.substeps[process.name] += n_sub
-        report.steps = i
-        report.elapsed_years = i * dt
-        if guard is not None:
-            guard.check(h, report.elapsed_years, f"in step {i} (t = {report.elapsed_years:g} y)")
+        applier.step(h, i)
         if on_step is not None:
             on_step(i, h)
-    return h, report
+    return h, applier.report

@@ -11,6 +11,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from unerode_cli.errors import InputError
+from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
@@ -19,6 +20,7 @@ from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import boundaries_from_options
 from unerode_cli.run.declare import declared
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
+from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import (
     TIME_TAG,
@@ -38,7 +40,15 @@ from unerode_cli.run.registry import (
     parse_process_list,
     thermal_constraints,
 )
-from unerode_cli.run.runner import Process, RunReport, run
+from unerode_cli.run.runner import Budget, Process, RunReport, StepApplier
+from unerode_cli.run.stepping import (
+    NO_CHECKPOINTS,
+    Checkpoints,
+    StepInfo,
+    Stepped,
+    finish_checkpoints,
+    step_through,
+)
 
 
 @declared("erode", OPTIONS)
@@ -81,6 +91,7 @@ class PreparedJob:
     snapshot_stride: int | None
     outputs: Outputs
     uplift: float | np.ndarray = 0.0
+    checkpoints: Checkpoints = NO_CHECKPOINTS
 
     @property
     def signed_dt(self) -> float:
@@ -89,12 +100,61 @@ class PreparedJob:
 
 @dataclass
 class ErosionResult:
-    """The final elevation (m), the run's report, the snapshots written and the wall time (s)."""
+    """The final elevation (m), the run's report, the snapshots written, the wall time (s) and
+    how the loop ended (``stepped.finished`` False: stopped by --max-steps or a cancel)."""
 
     elevation: np.ndarray
     report: RunReport
     snapshots: list[Path]
     wall_s: float
+    stepped: Stepped
+
+
+class ErosionSteps:
+    """The state of an erode/unerode run as the stepping loop drives it (:class:`Stepper`):
+    the elevation (m), the processes' report and the snapshots written so far."""
+
+    def __init__(self, prepared: PreparedJob, progress: Progress) -> None:
+        job, terrain = prepared.job, prepared.terrain
+        self.prepared = prepared
+        self.elevation = np.array(terrain.elevation, dtype=np.float64, copy=True)
+        guard = DivergenceGuard(terrain.elevation, max_rate(prepared.uplift))
+        self.applier = StepApplier(prepared.processes, prepared.signed_dt, not job.no_substep, progress.note,
+                                   guard, prepared.steps)
+        self.snapshots: list[Path] = []
+
+    def step(self, k: int) -> StepInfo:
+        prepared, i = self.prepared, k + 1
+        self.applier.step(self.elevation, i)
+        if prepared.snapshot_stride and i % prepared.snapshot_stride == 0:
+            self._snapshot(i)
+        return StepInfo(f"t = {i * prepared.signed_dt:+.6g} y")
+
+    def _snapshot(self, i: int) -> None:
+        prepared, job = self.prepared, self.prepared.job
+        path = snapshot_path(job.output, i // prepared.snapshot_stride)
+        snap = prepared.terrain.with_elevation(self.elevation)
+        snap.tags[TIME_TAG] = repr(i * prepared.signed_dt)
+        save(snap, Outputs(path, prepared.outputs.options, job.overwrite or job.resume), job.command,
+             _provenance(prepared), {"time_years": i * prepared.signed_dt})
+        self.snapshots.append(path)
+
+    def state(self) -> dict[str, Any]:
+        report = self.applier.report
+        return {"elevation": self.elevation, "steps": report.steps, "elapsed_years": report.elapsed_years,
+                "substeps": report.substeps, "noted": sorted(self.applier.noted),
+                "budgets": {name: [b.eroded, b.deposited, b.outflux, b.inflow]
+                            for name, b in report.budgets.items()},
+                "snapshots": [str(p) for p in self.snapshots]}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        report = self.applier.report
+        self.elevation = np.array(state["elevation"], dtype=np.float64)
+        report.steps, report.elapsed_years = int(state["steps"]), float(state["elapsed_years"])
+        report.substeps = {name: int(n) for name, n in state["substeps"].items()}
+        report.budgets = {name: Budget(*values) for name, values in state["budgets"].items()}
+        self.applier.noted = set(state["noted"])
+        self.snapshots = [Path(p) for p in state["snapshots"]]
 
 
 def step_count(dt: float, duration: float | None, steps: int | None) -> int:
@@ -136,14 +196,16 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
         for path in (job.source, job.params, job.dirichlet, job.inflow):
             if path is not None:
                 plan_outputs.read(path)
-    outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, job.overwrite, job.preview)
+    check_checkpoint(job.output, job.resume, job.overwrite, (job.source,))
+    replace = job.overwrite or job.resume      # a resumed run rewrites what it had written
+    outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, replace, job.preview)
     outputs.check(job.source)
     rasters = [job.change_map] if job.change_map else []
     rasters += [snapshot_path(job.output, k) for k in range(1, steps // stride + 1)] if stride else []
     for path in rasters:
-        check_raster(path, outputs.options, job.overwrite, (job.source,))
+        check_raster(path, outputs.options, replace, (job.source,))
     if job.change_map and job.preview:
-        check_png(change_preview_path(job.change_map), job.overwrite, (job.source,))
+        check_png(change_preview_path(job.change_map), replace, (job.source,))
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
     terrain.check_valid(job.source)
     outputs.check_source(terrain, job.source)
@@ -161,35 +223,33 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
             values[spec.name] = resolve(spec, parameters[spec.name], terrain)
     processes = build_processes(names, terrain, bounds, values, options)
     uplift = values.get(UPLIFT.name, 0.0)
-    return PreparedJob(job, terrain, processes, parameters, job.dt, steps, stride, outputs, uplift)
+    prepared = PreparedJob(job, terrain, processes, parameters, job.dt, steps, stride, outputs, uplift)
+    files = [job.source, job.params, job.dirichlet, job.inflow,
+             *(Path(text) for text in parameters.values() if isinstance(text, str) and Path(text).is_file())]
+    fingerprint = run_fingerprint(_provenance(prepared), files)
+    prepared.checkpoints = Checkpoints(checkpoint_path(job.output), job.checkpoint_every, job.resume,
+                                       fingerprint)
+    return prepared
 
 
 def run_steps(prepared: PreparedJob, progress: Progress) -> ErosionResult:
-    """The time steps, on arrays (numbered snapshots are written as they are reached)."""
-    job, terrain = prepared.job, prepared.terrain
+    """The time steps, on arrays, through the shared stepping loop (checkpoints, resume,
+    --max-steps, cancel); numbered snapshots are written as they are reached."""
     start = time.perf_counter()
-    snapshots: list[Path] = []
-    progress.start(prepared.steps, job.command)
-
-    def after_step(i: int, h: np.ndarray) -> None:
-        if prepared.snapshot_stride and i % prepared.snapshot_stride == 0:
-            path = snapshot_path(job.output, i // prepared.snapshot_stride)
-            snap = terrain.with_elevation(h)
-            snap.tags[TIME_TAG] = repr(i * prepared.signed_dt)
-            save(snap, Outputs(path, prepared.outputs.options, job.overwrite), job.command,
-                 _provenance(prepared), {"time_years": i * prepared.signed_dt})
-            snapshots.append(path)
-        progress.advance(f"t = {i * prepared.signed_dt:+.6g} y")
-
-    guard = DivergenceGuard(terrain.elevation, max_rate(prepared.uplift))
-    h, report = run(terrain.elevation, prepared.processes, prepared.signed_dt, prepared.steps,
-                    not job.no_substep, after_step, progress.note, guard)
-    return ErosionResult(h, report, snapshots, time.perf_counter() - start)
+    steps = ErosionSteps(prepared, progress)
+    stepped = step_through(steps, prepared.steps, progress, prepared.job.command, prepared.checkpoints,
+                           prepared.job.max_steps)
+    return ErosionResult(steps.elevation, steps.applier.report, steps.snapshots,
+                         time.perf_counter() - start, stepped)
 
 
 def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
-    """Write the eroded DEM, the change map and their previews; the one-line summary."""
+    """Write the eroded DEM, the change map and their previews, and remove the checkpoint; the
+    one-line summary. A run stopped before its end writes nothing more than its checkpoint."""
     job, terrain, report = prepared.job, prepared.terrain, result.report
+    if not result.stepped.finished:
+        return (f"{job.command}: stopped after step {result.stepped.done} of {prepared.steps} "
+                f"(t = {report.elapsed_years:+g} y); run again with --resume to continue.")
     output = terrain.with_elevation(result.elevation)
     output.tags[TIME_TAG] = repr(report.elapsed_years)
     change = process_change(terrain, result.elevation, prepared, report)
@@ -202,6 +262,7 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
         if job.preview is not None:
             field_preview(change, terrain, change_preview_path(job.change_map),
                           "Δh due to the processes (m)", title=job.change_map.name, diverging=True)
+    finish_checkpoints(prepared.checkpoints, result.stepped)
     budget = sum(b.eroded for b in report.budgets.values()), sum(
         b.deposited for b in report.budgets.values())
     return (f"{job.command}: {report.steps} steps of {prepared.dt:g} y "

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from unerode_cli.processes import debris, fluvial, hillslope, thermal
+from unerode_cli.processes import thermal
 from unerode_cli.run.common_options import (
-    BOUNDARY_PANEL,
+    CHECKPOINTS,
     DIRICHLET,
     OUTLETS,
     OUTPUT,
@@ -17,24 +17,12 @@ from unerode_cli.run.common_options import (
     SOURCE,
 )
 from unerode_cli.run.declare import Opt, parameter_options
-
-PARAMETER_PANELS = {
-    "Fluvial parameters (000 §3)": fluvial.PARAMETERS,
-    "Thermal parameters (000 §4; thermal and thermal-ca)": thermal.PARAMETERS,
-    "Hillslope parameters (001 §6.4)": hillslope.PARAMETERS,
-    "Debris-flow parameters (001 Eq. 8)": debris.PARAMETERS,
-}
+from unerode_cli.run.process_options import INFLOW, PARAMETER_PANELS
 
 PROCESS_HELP = ("Process(es), comma-separated, applied in this order within each step (operator "
                 "splitting): fluvial, thermal, thermal-ca (forward only), hillslope (forward only), "
                 "debris (forward only).")
 
-INFLOW = Opt("inflow", Path, None, "CSV of rivers entering the map, columns x,y,discharge_m3_per_y,"
-             "sediment_m3_per_y (DEM's CRS; m³/y): each point is snapped to the nearest valid cell, "
-             "within one cell of the edge or of nodata and not an outlet, where its water joins the "
-             "discharge and its sediment the fluvial sediment flux. climate-run also takes an age_ka "
-             "column: each river's rows at several ages, linear in age.", role="input",
-             panel=BOUNDARY_PANEL)
 METHOD = Opt("method", str, "mfd", "Flow routing: mfd (multiple flow directions) or d8.",
              choices=("mfd", "d8"))
 PARAMS_FILE = Opt("params", Path, None, "YAML file of parameter values (name or symbol → number or raster "
@@ -66,4 +54,5 @@ OPTIONS = (
     INFLOW,
     *READING,
     *RASTER_OUTPUT,
+    *CHECKPOINTS,
 ) + parameter_options(PARAMETER_PANELS)

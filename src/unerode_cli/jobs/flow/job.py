@@ -1,4 +1,4 @@
-"""A `flow` job: discharge (m³/y), drainage area (m²) or D8 receivers of a DEM, routed across
+"""The `flow` job: discharge (m³/y), drainage area (m²) or D8 receivers of a DEM, routed across
 depressions on a routing copy (the DEM is not changed), written with a sidecar and preview."""
 
 from __future__ import annotations
@@ -11,9 +11,14 @@ import numpy as np
 from unerode_cli.errors import InputError
 from unerode_cli.hydro import accumulate, route
 from unerode_cli.hydro.directions import esri_d8_codes
+from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import is_exr, read_terrain
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.jobs.flow.options import OPTIONS
 from unerode_cli.processes.parameters import ParamSpec
-from unerode_cli.run.boundaries import boundaries_from_options
+from unerode_cli.run.boundaries import Boundaries, boundaries_from_options
+from unerode_cli.run.declare import declared
+from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import Outputs, field_preview, save
 from unerode_cli.run.parameter_maps import resolve
 
@@ -22,55 +27,85 @@ PRECIPITATION = ParamSpec("precipitation", "m/y", 1.0, "precipitation", 0.0, ras
 FIELDS = {"discharge": ("m3/y", -9999.0), "area": ("m2", -9999.0), "receivers": ("D8 code", 255.0)}
 
 
-@dataclass(frozen=True)
-class FlowJob:
-    """What the user asked for: ``what`` is discharge, area or receivers; ``method`` mfd or d8;
-    ``precipitation`` (m/y) a number or a raster path."""
-
-    source: Path
-    outputs: Outputs
-    what: str = "discharge"
-    method: str = "mfd"
-    precipitation: str = "1.0"
-    outlets: str = "all"
-    sea_level: float | None = None
-    dirichlet: Path | None = None
-    band: int | None = None
-    channel: str | None = None
-
-
 def output_dtype(what: str) -> str:
     """uint8 for D8 codes, float32 for discharge and area."""
     return "uint8" if what == "receivers" else "float32"
 
 
-def run_flow(job: FlowJob) -> None:
-    """Check the outputs, read the DEM, route, accumulate and write field, sidecar and preview."""
-    outputs = job.outputs
-    if job.what == "receivers" and is_exr(outputs.path):
-        raise InputError("EXR files hold float samples only, not the uint8 D8 codes of --what "
-                         f"receivers: write {outputs.path.stem}.tif instead.")
-    outputs.check(job.source)
-    terrain = read_terrain(job.source, band=job.band, channel=job.channel)
-    terrain.check_valid(job.source)
-    outputs.check_source(terrain, job.source)
-    bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
-    rain = resolve(PRECIPITATION, job.precipitation, terrain)
-    routing = route(terrain.elevation, terrain.grid, bounds.outlets(terrain.elevation, terrain), job.method)
-    if job.what == "receivers":
-        values = esri_d8_codes(routing.receivers(), terrain.shape).astype(float)
-    else:
-        values = accumulate(routing, rain if job.what == "discharge" else 1.0)
-    unit, nodata = FIELDS[job.what]
-    values = np.where(terrain.nodata_mask, np.nan, values)
-    layer = terrain.with_elevation(values)
-    layer.nodata, layer.tags["UNIT"] = nodata, unit
-    stats = {"outlet_cells": int(routing.outlets.sum()), "max": float(np.nanmax(values)), "unit": unit}
-    save(layer, outputs, "flow",
-         {"input": job.source, "what": job.what, "method": job.method, "precipitation": job.precipitation,
-          "outlets": job.outlets, "sea_level": job.sea_level, "dirichlet": job.dirichlet},
-         stats, elevation_preview=False)
-    if outputs.preview is not None:
-        field_preview(values, terrain, outputs.preview, f"{job.what} ({unit})",
-                      log=job.what != "receivers", title=outputs.path.name)
+@dataclass
+class PlannedFlow:
+    """The DEM read, its outlets, the precipitation (m/y, a number or a map) and the cleared
+    outputs."""
 
+    terrain: Terrain
+    bounds: Boundaries
+    rain: float | np.ndarray
+    outputs: Outputs
+
+
+@dataclass
+class FlowField:
+    """The field (discharge m³/y, area m² or D8 codes; NaN on nodata) and the number of outlet
+    cells of the routing."""
+
+    values: np.ndarray
+    outlet_cells: int
+
+
+@declared("flow", OPTIONS)
+class FlowJob(Job):
+    """Route water over a DEM: ``what`` is discharge, area or receivers; ``method`` mfd or d8;
+    ``precipitation`` (m/y) a number or a raster path."""
+
+    def plan(self, outputs: OutputPlan) -> PlannedFlow:
+        """Check the outputs (D8 codes are uint8, which EXR cannot hold), read the DEM, its
+        boundaries and the precipitation."""
+        written = Outputs.from_cli(self.output, output_dtype(self.what), self.cog, self.co, self.overwrite,
+                                   self.preview)
+        if self.what == "receivers" and is_exr(self.output):
+            raise InputError("EXR files hold float samples only, not the uint8 D8 codes of --what "
+                             f"receivers: write {self.output.stem}.tif instead.")
+        for path in (self.dem, self.dirichlet, _raster_path(self.precipitation)):
+            if path is not None:
+                outputs.read(path)
+        written.check(self.dem)
+        terrain = read_terrain(self.dem, band=self.band, channel=self.channel)
+        terrain.check_valid(self.dem)
+        written.check_source(terrain, self.dem)
+        bounds = boundaries_from_options(terrain, self.outlets, self.sea_level, self.dirichlet)
+        rain = resolve(PRECIPITATION, self.precipitation, terrain)
+        return PlannedFlow(terrain, bounds, rain, written)
+
+    def run(self, planned: PlannedFlow, progress: Progress) -> tuple[PlannedFlow, FlowField]:
+        """Route (across depressions) and accumulate, or encode the receivers as D8 codes."""
+        terrain = planned.terrain
+        routing = route(terrain.elevation, terrain.grid, planned.bounds.outlets(terrain.elevation, terrain),
+                        self.method)
+        if self.what == "receivers":
+            values = esri_d8_codes(routing.receivers(), terrain.shape).astype(float)
+        else:
+            values = accumulate(routing, planned.rain if self.what == "discharge" else 1.0)
+        values = np.where(terrain.nodata_mask, np.nan, values)
+        return planned, FlowField(values, int(routing.outlets.sum()))
+
+    def write(self, result: tuple[PlannedFlow, FlowField], outputs: OutputPlan) -> str:
+        """Write the field with its unit and nodata value, its sidecar and its preview."""
+        planned, field = result
+        unit, nodata = FIELDS[self.what]
+        layer = planned.terrain.with_elevation(field.values)
+        layer.nodata, layer.tags["UNIT"] = nodata, unit
+        stats = {"outlet_cells": field.outlet_cells, "max": float(np.nanmax(field.values)), "unit": unit}
+        save(layer, planned.outputs, self.COMMAND, self.provenance(), stats, elevation_preview=False)
+        if self.preview is not None:
+            field_preview(field.values, planned.terrain, self.preview, f"{self.what} ({unit})",
+                          log=self.what != "receivers", title=self.output.name)
+        return ""
+
+
+def _raster_path(value: str) -> Path | None:
+    """The raster that a number-or-raster option names, None for a number."""
+    try:
+        float(value)
+    except ValueError:
+        return Path(value)
+    return None

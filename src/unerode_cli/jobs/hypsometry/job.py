@@ -1,48 +1,66 @@
-"""`hypsometry`: elevation histograms of DEMs as a CSV table and a PNG (001 Fig. 15)."""
+"""The `hypsometry` job: elevation histograms of DEMs (001 Fig. 15), printed as a table of
+their statistics and written as a CSV table and a PNG."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from unerode_cli.analysis.hypsometry import Hypsometry, hypsometry
 from unerode_cli.errors import InputError
 from unerode_cli.io.csv_tables import write_table
-from unerode_cli.io.paths import atomic_path, check_output
+from unerode_cli.io.paths import OutputPlan, atomic_path
 from unerode_cli.io.rasters import read_terrain
+from unerode_cli.jobs.hypsometry.options import OPTIONS
+from unerode_cli.run.declare import declared
+from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import check_png
 from unerode_cli.viz.hypsometry_plot import save_hypsometry_plot
 
 CSV_COLUMNS = ["dem", "bin", "lower", "upper", "centre", "area_fraction", "area_above_fraction"]
 
 
-def compute(dems: list[Path], bins: int, normalise: str) -> list[tuple[Path, Hypsometry]]:
-    """The hypsometry of each DEM (InputError on a bad DEM or setting)."""
-    results = []
-    for dem in dems:
-        try:
-            results.append((dem, hypsometry(read_terrain(dem).elevation, bins, normalise)))
-        except ValueError as exc:
-            raise InputError(f"{dem}: {exc}.") from None
-    return results
+@declared("hypsometry", OPTIONS)
+class HypsometryJob(Job):
+    """The hypsometry of each of ``dems`` in ``bins`` bins of elevation (normalised by
+    ``normalise``: max, range or none), into ``csv`` and ``plot`` when given."""
 
+    def plan(self, outputs: OutputPlan) -> list[tuple[Path, np.ndarray]]:
+        """Clear the CSV and the plot, then read the elevations (m) of each DEM."""
+        for dem in self.dems:
+            outputs.read(dem)
+        if self.csv is not None:
+            outputs.check_output(self.csv, self.overwrite)
+        if self.plot is not None:
+            check_png(self.plot, self.overwrite)
+        return [(dem, read_terrain(dem).elevation) for dem in self.dems]
 
-def check_outputs(dems: list[Path], csv_path: Path | None, plot: Path | None, overwrite: bool) -> None:
-    """Clear the CSV and the plot before any DEM is read."""
-    if csv_path is not None:
-        check_output(csv_path, overwrite, tuple(dems))
-    if plot is not None:
-        check_png(plot, overwrite, tuple(dems))
+    def run(self, planned: list[tuple[Path, np.ndarray]],
+            progress: Progress) -> list[tuple[Path, Hypsometry]]:
+        """The hypsometry of each DEM, printed as a table: min, max, mean and mode (m) and the
+        hypsometric integral HI = (mean − min)/(max − min)."""
+        results = []
+        for dem, elevation in planned:
+            try:
+                results.append((dem, hypsometry(elevation, self.bins, self.normalise)))
+            except ValueError as exc:
+                raise InputError(f"{dem}: {exc}.") from None
+        progress.data("dem\tmin_m\tmax_m\tmean_m\tmode_m\tHI")
+        for dem, result in results:
+            progress.data(f"{dem.name}\t{result.minimum_m:.6g}\t{result.maximum_m:.6g}\t{result.mean_m:.6g}\t"
+                          f"{result.mode_m:.6g}\t{result.integral:.4f}")
+        return results
 
-
-def write(results: list[tuple[Path, Hypsometry]], csv_path: Path | None, plot: Path | None) -> None:
-    """Write the long-form CSV (one row per DEM and bin) and the plot (cleared by
-    :func:`check_outputs`), atomically."""
-    if csv_path is not None:
-        rows = [dict(zip(CSV_COLUMNS, (dem.name, k, result.edges[k], result.edges[k + 1], result.centres[k],
-                                        fraction, result.area_above[k]), strict=True))
-                for dem, result in results for k, fraction in enumerate(result.fraction)]
-        write_table(csv_path, CSV_COLUMNS, rows)
-    if plot is not None:
-        curves = [(dem.name, result.centres, result.fraction) for dem, result in results]
-        with atomic_path(plot) as tmp:
-            save_hypsometry_plot(tmp, curves, results[0][1].normalise, "hypsometry")
+    def write(self, result: list[tuple[Path, Hypsometry]], outputs: OutputPlan) -> str:
+        """Write the long-form CSV (one row per DEM and bin) and the plot, atomically."""
+        if self.csv is not None:
+            rows = [dict(zip(CSV_COLUMNS, (dem.name, k, hyps.edges[k], hyps.edges[k + 1], hyps.centres[k],
+                                            fraction, hyps.area_above[k]), strict=True))
+                    for dem, hyps in result for k, fraction in enumerate(hyps.fraction)]
+            write_table(self.csv, CSV_COLUMNS, rows)
+        if self.plot is not None:
+            curves = [(dem.name, hyps.centres, hyps.fraction) for dem, hyps in result]
+            with atomic_path(self.plot) as tmp:
+                save_hypsometry_plot(tmp, curves, result[0][1].normalise, "hypsometry")
+        return ""

@@ -1,20 +1,39 @@
-"""An `info` job: describe a heightfield (size, CRS, cell size, extent, elevations, nodata)."""
+"""The `info` job: describe a heightfield (size, CRS, cell size, extent, elevations, nodata)
+as text or JSON on the standard output."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 from pyproj import CRS
 
+from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.provenance import history
 from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.terrain import Terrain
+from unerode_cli.jobs.info.options import OPTIONS
+from unerode_cli.run.declare import declared
+from unerode_cli.run.job import Job, Progress
 
 
-def describe(path: Path, band: int | None = None, channel: str | None = None) -> dict[str, Any]:
-    """A JSON-able summary of the heightfield at ``path``: size, CRS, cell size (m), extent,
+@declared("info", OPTIONS)
+class InfoJob(Job):
+    """Describe the heightfield ``dem``; writes no file, prints the description (``progress.data``)."""
+
+    def plan(self, outputs: OutputPlan) -> Terrain:
+        outputs.read(self.dem)
+        return read_terrain(self.dem, band=self.band, channel=self.channel)
+
+    def run(self, planned: Terrain, progress: Progress) -> None:
+        summary = describe(planned, self.dem)
+        progress.data(json.dumps(summary, indent=2) if self.as_json else as_text(summary))
+
+
+def describe(terrain: Terrain, path: Path) -> dict[str, Any]:
+    """A JSON-able summary of ``terrain`` (read from ``path``): size, CRS, cell size (m), extent,
     elevations (m), nodata and the number of unerode-cli steps in its history."""
-    terrain = read_terrain(path, band=band, channel=channel)
     ny, nx = terrain.shape
     valid = ~terrain.nodata_mask
     crs = CRS.from_wkt(terrain.crs_wkt) if terrain.crs_wkt else None

@@ -1,11 +1,11 @@
-"""`landforms`: glacial landform measures of a DEM (001 §7.1, Fig. 15) — U-shape of the main
-valley's cross-sections, hanging tributaries, lakes, hypsometry and its shift from an earlier
-DEM. Reads the DEMs, runs :mod:`unerode_cli.analysis.landforms` and writes the report folder:
-landforms.json and landforms.png."""
+"""The `landforms` job: glacial landform measures of a DEM (001 §7.1, Fig. 15) — U-shape of the
+main valley's cross-sections, hanging tributaries, lakes, hypsometry and its shift from an
+earlier DEM. Reads the DEMs, runs :mod:`unerode_cli.analysis.landforms`, prints a short table
+and writes the report folder: landforms.json and landforms.png."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -17,9 +17,12 @@ from unerode_cli.errors import InputError
 from unerode_cli.hydro import outlet_mask
 from unerode_cli.hydro.depressions import lake_labels
 from unerode_cli.io.json_files import write_json
-from unerode_cli.io.paths import atomic_path, check_output
+from unerode_cli.io.paths import OutputPlan, atomic_path
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
+from unerode_cli.jobs.landforms.options import OPTIONS
+from unerode_cli.run.declare import declared
+from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import check_png
 from unerode_cli.viz.landforms_plot import JunctionMark, SectionCurve, save_landforms_plot
 
@@ -27,62 +30,93 @@ JSON_NAME = "landforms.json"
 PNG_NAME = "landforms.png"
 
 
-@dataclass(frozen=True)
-class LandformsJob:
-    """What the user asked for.
+@dataclass
+class PlannedLandforms:
+    """The DEM read, the elevations (m) of the DEM before erosion (None without ``before``)
+    and the cells where water leaves the DEM."""
 
-    Attributes:
-        dem: the DEM measured.
-        out_dir: the report folder (created if missing).
-        before: the DEM before erosion, whose hypsometry is compared (any grid), or None.
-        outlets: domain edges where water leaves ("all", "none" or e.g. "N,W"); nodata borders
-            always drain.
-        settings: how the landforms are measured.
-        overwrite: replace existing reports.
-    """
-
-    dem: Path
-    out_dir: Path
-    before: Path | None = None
-    outlets: str = "all"
-    settings: Settings = field(default_factory=Settings)
-    overwrite: bool = False
-
-    def outputs(self) -> dict[str, Path]:
-        return {name: self.out_dir / name for name in (JSON_NAME, PNG_NAME)}
-
-    def inputs(self) -> tuple[Path, ...]:
-        return (self.dem,) if self.before is None else (self.dem, self.before)
+    terrain: Terrain
+    before: np.ndarray | None
+    outlets: np.ndarray
 
 
-def check_outputs(job: LandformsJob) -> None:
-    """Refuse, before any DEM is read, a report folder that is a file or has no parent folder,
-    and reports that exist (without ``overwrite``) or are inputs."""
-    if job.out_dir.exists() and not job.out_dir.is_dir():
-        raise InputError(f"the report folder {job.out_dir} is a file.")
-    if job.out_dir.is_dir():
-        outputs = job.outputs()
-        check_output(outputs[JSON_NAME], job.overwrite, job.inputs())
-        check_png(outputs[PNG_NAME], job.overwrite, job.inputs())
-    elif not job.out_dir.parent.exists():
-        raise InputError(f"the folder above the report folder {job.out_dir} does not exist.")
+@dataclass
+class MeasuredLandforms:
+    """The landforms measured and the numbers of landforms.json."""
+
+    landforms: Landforms
+    numbers: dict[str, Any]
 
 
-def compute(job: LandformsJob) -> tuple[Terrain, Landforms]:
-    """Read the DEMs and measure (InputError on a bad DEM or setting)."""
-    terrain = read_terrain(job.dem)
-    terrain.check_valid(job.dem)
-    before = None
-    if job.before is not None:
-        earlier = read_terrain(job.before)
-        earlier.check_valid(job.before)
-        before = earlier.elevation
-    try:
-        job.settings.check()
-        outlets = outlet_mask(terrain.grid, job.outlets)
-        return terrain, measure_landforms(terrain.elevation, terrain.grid, outlets, before, job.settings)
-    except ValueError as exc:
-        raise InputError(f"{job.dem}: {exc}.") from None
+@declared("landforms", OPTIONS)
+class LandformsJob(Job):
+    """Measure the landforms of ``dem`` into the report folder ``out`` (created if missing);
+    ``before``: the DEM before erosion, whose hypsometry is compared (any grid); ``outlets``:
+    domain edges where water leaves ("all", "none" or e.g. "N,W"; nodata borders always drain).
+    The other options are the :class:`Settings` of the measures (m)."""
+
+    @property
+    def settings(self) -> Settings:
+        """How the landforms are measured (the remaining settings at their defaults)."""
+        return Settings(spacing_m=self.spacing, half_width_m=self.half_width, reach_m=self.reach,
+                        min_step_m=self.min_step, min_lake_depth_m=self.min_lake_depth)
+
+    def report_files(self) -> dict[str, Path]:
+        """landforms.json and landforms.png in the report folder, by name."""
+        return {name: self.out / name for name in (JSON_NAME, PNG_NAME)}
+
+    def plan(self, outputs: OutputPlan) -> PlannedLandforms:
+        """Clear the report folder and its files, read the DEMs, check the settings and the
+        outlets (InputError on a bad DEM or setting)."""
+        for path in (self.dem, self.before):
+            if path is not None:
+                outputs.read(path)
+        check_folder(self.out)
+        if self.out.is_dir():
+            files = self.report_files()
+            outputs.check_output(files[JSON_NAME], self.overwrite)
+            check_png(files[PNG_NAME], self.overwrite)
+        terrain = read_terrain(self.dem)
+        terrain.check_valid(self.dem)
+        before = None
+        if self.before is not None:
+            earlier = read_terrain(self.before)
+            earlier.check_valid(self.before)
+            before = earlier.elevation
+        try:
+            self.settings.check()
+            outlets = outlet_mask(terrain.grid, self.outlets)
+        except ValueError as exc:
+            raise InputError(f"{self.dem}: {exc}.") from None
+        return PlannedLandforms(terrain, before, outlets)
+
+    def run(self, planned: PlannedLandforms,
+            progress: Progress) -> tuple[PlannedLandforms, MeasuredLandforms]:
+        """Measure, and print the short table of the measures (``measure<TAB>value`` lines)."""
+        terrain = planned.terrain
+        try:
+            landforms = measure_landforms(terrain.elevation, terrain.grid, planned.outlets, planned.before,
+                                          self.settings)
+        except ValueError as exc:
+            raise InputError(f"{self.dem}: {exc}.") from None
+        numbers = summary(self, terrain, landforms)
+        progress.data("measure\tvalue")
+        for measure, value in table(numbers):
+            progress.data(f"{measure}\t{value}")
+        return planned, MeasuredLandforms(landforms, numbers)
+
+    def write(self, result: tuple[PlannedLandforms, MeasuredLandforms], outputs: OutputPlan) -> str:
+        planned, measured = result
+        write_report(self, planned.terrain, measured)
+        return f"report written to {self.out}/"
+
+
+def check_folder(folder: Path) -> None:
+    """Refuse a report folder that is a file, or whose parent folder does not exist."""
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"the report folder {folder} is a file.")
+    if not folder.exists() and not folder.parent.exists():
+        raise InputError(f"the folder above the report folder {folder} does not exist.")
 
 
 def _place(terrain: Terrain, row: float, col: float) -> dict[str, float]:
@@ -161,14 +195,14 @@ def table(numbers: dict[str, Any]) -> list[tuple[str, str]]:
     return rows
 
 
-def write(job: LandformsJob, terrain: Terrain, landforms: Landforms) -> dict[str, Any]:
-    """Write landforms.json and landforms.png (cleared by :func:`check_outputs`), atomically;
-    returns the numbers written."""
-    numbers = summary(job, terrain, landforms)
-    outputs = job.outputs()
-    job.out_dir.mkdir(exist_ok=True)
-    write_json(outputs[JSON_NAME], numbers)
-    labels, _ = lake_labels(landforms.lake_depth, job.settings.min_lake_depth_m)
+def write_report(job: LandformsJob, terrain: Terrain, measured: MeasuredLandforms) -> None:
+    """Write landforms.json and landforms.png (cleared by the plan) in the report folder,
+    atomically."""
+    landforms = measured.landforms
+    files = job.report_files()
+    job.out.mkdir(exist_ok=True)
+    write_json(files[JSON_NAME], measured.numbers)
+    labels, _ = lake_labels(landforms.lake_depth, job.min_lake_depth)
     sections = [SectionCurve(s.rows, s.cols, s.distance_m, s.elevation_m, s.fitted(s.distance_m), s.z0_m,
                              s.chainage_m, s.b) for s in landforms.u_shape.sections]
     marks = [JunctionMark(j.row, j.col, j.chainage_m, j.step_m, j.step_m >= landforms.hanging.min_step_m)
@@ -182,8 +216,7 @@ def write(job: LandformsJob, terrain: Terrain, landforms: Landforms) -> dict[str
         shape = f"b = {landforms.u_shape.median_b:.2f} (median of {len(sections)} sections)"
     title = (f"{job.dem.name}: {shape}, {len(landforms.hanging.hanging)} hanging of {len(marks)} "
              f"tributaries, {landforms.lakes.count} lakes")
-    with atomic_path(outputs[PNG_NAME]) as tmp:
+    with atomic_path(files[PNG_NAME]) as tmp:
         save_landforms_plot(tmp, terrain.elevation, terrain.dx, terrain.dy,
                             np.where(labels > 0, landforms.lake_depth, 0.0), landforms.trunk.rows,
                             landforms.trunk.cols, sections, marks, curves, title)
-    return numbers

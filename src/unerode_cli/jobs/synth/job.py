@@ -1,53 +1,67 @@
-"""A `synth` job: a reproducible synthetic DEM with a CRS, written with its sidecar."""
+"""The `synth` job: a reproducible synthetic DEM with a CRS, written with its sidecar."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+from affine import Affine
 
 from unerode_cli.errors import InputError
-from unerode_cli.io.cellsize import cell_size_metres
+from unerode_cli.io.cellsize import CellSize, cell_size_metres
 from unerode_cli.io.georef import centred_transform, parse_crs
+from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.terrain import Terrain
+from unerode_cli.jobs.synth.options import OPTIONS
+from unerode_cli.run.declare import declared
+from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import Outputs, save
 from unerode_cli.synthetic import synthesize
 
 
-@dataclass(frozen=True)
-class SynthJob:
+@dataclass
+class PlannedSynth:
+    """The grid of the DEM: CRS (WKT), affine transform, cell size (m) and the cleared outputs."""
+
+    crs_wkt: str
+    transform: Affine
+    cell: CellSize
+    outputs: Outputs
+
+
+@declared("synth", OPTIONS)
+class SynthJob(Job):
     """``size`` cells square of ``dx`` metres, ``relief`` metres of land, in ``crs`` around
     ``centre`` ("X,Y" in CRS units; None: the CRS's area of use)."""
 
-    outputs: Outputs
-    kind: str = "mountain"
-    size: int = 512
-    dx: float = 30.0
-    relief: float = 2000.0
-    seed: int = 1
-    crs: str = "EPSG:32632"
-    centre: str | None = None
-    sea_nodata: bool = False
+    def plan(self, outputs: OutputPlan) -> PlannedSynth:
+        """Clear the outputs and place the grid (CRS, transform, cell size in metres)."""
+        written = Outputs.from_cli(self.output, self.dtype, self.cog, self.co, self.overwrite, self.preview)
+        written.check()
+        if not self.dx > 0:
+            raise InputError(f"--dx must be a positive cell size in metres, got {self.dx}.")
+        crs = parse_crs(self.crs)
+        shape = (self.size, self.size)
+        transform = centred_transform(crs, shape, self.dx, parse_centre(self.centre))
+        wkt = crs.to_wkt()
+        cell = cell_size_metres(wkt, transform, shape, str(self.output))
+        return PlannedSynth(wkt, transform, cell, written)
 
+    def run(self, planned: PlannedSynth, progress: Progress) -> tuple[PlannedSynth, np.ndarray]:
+        """The elevations (m; NaN below 0 m with ``sea_nodata``)."""
+        elevation = synthesize(self.kind, (self.size, self.size), self.relief, self.seed)
+        if self.sea_nodata:
+            elevation = np.where(elevation < 0.0, np.nan, elevation)
+        return planned, elevation
 
-def run_synth(job: SynthJob) -> None:
-    """Check the options and output, synthesise and write the DEM."""
-    job.outputs.check()
-    if not job.dx > 0:
-        raise InputError(f"--dx must be a positive cell size in metres, got {job.dx}.")
-    crs = parse_crs(job.crs)
-    shape = (job.size, job.size)
-    transform = centred_transform(crs, shape, job.dx, parse_centre(job.centre))
-    elevation = synthesize(job.kind, shape, job.relief, job.seed)
-    if job.sea_nodata:
-        elevation = np.where(elevation < 0.0, np.nan, elevation)
-    wkt = crs.to_wkt()
-    cell = cell_size_metres(wkt, transform, shape, str(job.outputs.path))
-    terrain = Terrain(elevation, cell.dx, cell.dy, wkt, transform,
-                      -9999.0 if job.sea_nodata else None, {"AREA_OR_POINT": "Area", "UNIT": "metre"})
-    save(terrain, job.outputs, "synth",
-         {"kind": job.kind, "size": job.size, "dx": job.dx, "relief": job.relief, "crs": job.crs,
-          "centre": job.centre, "sea_nodata": job.sea_nodata}, seed=job.seed)
+    def write(self, result: tuple[PlannedSynth, np.ndarray], outputs: OutputPlan) -> str:
+        """Write the DEM with its history (and the seed), sidecar and preview."""
+        planned, elevation = result
+        terrain = Terrain(elevation, planned.cell.dx, planned.cell.dy, planned.crs_wkt,
+                          planned.transform, -9999.0 if self.sea_nodata else None,
+                          {"AREA_OR_POINT": "Area", "UNIT": "metre"})
+        save(terrain, planned.outputs, self.COMMAND, self.provenance(), seed=self.seed)
+        return ""
 
 
 def parse_centre(text: str | None) -> tuple[float, float] | None:

@@ -1,0 +1,119 @@
+"""The one time-stepping loop of every job that steps in time (erode/unerode, climate-run,
+glaciate, particle-erode, sandstone): progress, stop, checkpoints and resume.
+
+A job hands :func:`step_through` a :class:`Stepper` — its own state and how to advance it by one
+step — and the loop does the rest, the same way for every job:
+
+- **Resume.** With ``resume`` and a checkpoint of the same run (equal fingerprint: same inputs,
+  options and version), the stepper's state is restored and the loop goes on after the
+  checkpoint's step, so that the result is bit for bit that of a run never stopped. A checkpoint
+  of another run is refused (InputError); none at all starts from the beginning with a note.
+- **Progress.** ``progress.start`` once, ``progress.advance`` after each step with what the step
+  reports (its info text, and for runs counted in years the simulated years done).
+- **Stop.** After ``max_steps`` steps of this invocation, or when ``progress.cancelled()`` says so,
+  the loop writes a checkpoint and returns normally with ``finished`` False.
+- **Checkpoints.** Every ``every`` steps, and at a stop, the stepper's state is saved atomically
+  (:func:`~unerode_cli.io.checkpoints.write_state_checkpoint`); a finished run removes it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+from unerode_cli.errors import InputError
+from unerode_cli.io.checkpoints import read_state_checkpoint, write_state_checkpoint
+from unerode_cli.run.job import Progress
+
+
+@dataclass(frozen=True)
+class StepInfo:
+    """What one step reports: ``info`` for the progress line, ``done`` the simulated years done
+    so far (for runs whose progress counts years)."""
+
+    info: str = ""
+    done: float | None = None
+
+
+class Stepper(Protocol):
+    """A job's time-stepping state, as :func:`step_through` drives it."""
+
+    def step(self, k: int) -> StepInfo:
+        """Advance from the end of step ``k`` (0-based: ``k`` steps done) by one step."""
+
+    def state(self) -> dict[str, Any]:
+        """Everything needed to go on bit for bit after the steps done: NumPy arrays, numbers,
+        text, and lists or mappings of them."""
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Take back a state that :meth:`state` gave."""
+
+
+@dataclass(frozen=True)
+class Checkpoints:
+    """Where and how often a run is checkpointed: ``path`` (None: never), every ``every``
+    steps, continued when ``resume``; ``fingerprint`` names the run."""
+
+    path: Path | None
+    every: int = 10
+    resume: bool = False
+    fingerprint: str = ""
+
+
+@dataclass(frozen=True)
+class Stepped:
+    """How the loop ended: ``done`` steps done in all (``first`` of them before this
+    invocation), ``finished`` when every step is done."""
+
+    done: int
+    first: int
+    finished: bool
+
+
+NO_CHECKPOINTS = Checkpoints(None)
+
+
+def step_through(stepper: Stepper, steps: int, progress: Progress, label: str,
+                 checkpoints: Checkpoints = NO_CHECKPOINTS, max_steps: int | None = None,
+                 years: float | None = None) -> Stepped:
+    """Run ``steps`` steps of ``stepper`` (see the module docstring). ``years``: the simulated
+    years of the whole run when progress counts years (steps report ``done``), else None."""
+    first = _resumed(stepper, steps, progress, checkpoints)
+    last = steps if max_steps is None else min(steps, first + max_steps)
+    if years is None:
+        progress.start(steps - first, label)
+    else:
+        progress.start(years, label, unit="years")
+    for k in range(first, last):
+        report = stepper.step(k)
+        progress.advance(report.info, report.done)
+        stop = k + 1 < steps and (k + 1 == last or progress.cancelled())
+        if checkpoints.path is not None and ((k + 1) % checkpoints.every == 0 or stop):
+            write_state_checkpoint(checkpoints.path, checkpoints.fingerprint, k + 1, stepper.state())
+        if stop:
+            return Stepped(k + 1, first, False)
+    return Stepped(max(first, last), first, max(first, last) >= steps)
+
+
+def finish_checkpoints(checkpoints: Checkpoints, stepped: Stepped) -> None:
+    """Remove the checkpoint of a run that has finished (a stopped run keeps it)."""
+    if checkpoints.path is not None and stepped.finished:
+        checkpoints.path.unlink(missing_ok=True)
+
+
+def _resumed(stepper: Stepper, steps: int, progress: Progress, checkpoints: Checkpoints) -> int:
+    """Steps already done: 0, or with ``resume`` those of this run's checkpoint (restored)."""
+    path = checkpoints.path
+    if path is None or not checkpoints.resume:
+        return 0
+    if not path.exists():
+        progress.note(f"note: no checkpoint {path.name} to resume from; starting from the beginning.")
+        return 0
+    fingerprint, done, state = read_state_checkpoint(path)
+    if fingerprint != checkpoints.fingerprint:
+        raise InputError(f"the checkpoint {path} belongs to a run with other inputs or options; run "
+                         "without --resume (or with the same options).")
+    stepper.restore(state)
+    progress.note(f"note: resuming after step {done} of {steps}.")
+    return done
