@@ -30,10 +30,12 @@ from unerode_cli.run.job import Progress
 @dataclass(frozen=True)
 class StepInfo:
     """What one step reports: ``info`` for the progress line, ``done`` the simulated years done
-    so far (for runs whose progress counts years)."""
+    so far (for runs whose progress counts years), and ``last`` when the run has reached its end
+    (for runs whose number of steps is not known in advance, e.g. adaptive time steps)."""
 
     info: str = ""
     done: float | None = None
+    last: bool = False
 
 
 class Stepper(Protocol):
@@ -74,26 +76,33 @@ class Stepped:
 NO_CHECKPOINTS = Checkpoints(None)
 
 
-def step_through(stepper: Stepper, steps: int, progress: Progress, label: str,
+def step_through(stepper: Stepper, steps: int | None, progress: Progress, label: str,
                  checkpoints: Checkpoints = NO_CHECKPOINTS, max_steps: int | None = None,
                  years: float | None = None) -> Stepped:
-    """Run ``steps`` steps of ``stepper`` (see the module docstring). ``years``: the simulated
-    years of the whole run when progress counts years (steps report ``done``), else None."""
+    """Run ``steps`` steps of ``stepper`` (see the module docstring), or with ``steps`` None
+    until a step reports ``last``. ``years``: the simulated years of the whole run when progress
+    counts years (steps report ``done``), else None."""
     first = _resumed(stepper, steps, progress, checkpoints)
-    last = steps if max_steps is None else min(steps, first + max_steps)
+    end = steps if steps is not None else float("inf")
+    last = end if max_steps is None else min(end, first + max_steps)
     if years is None:
+        if steps is None:
+            raise ValueError("a run whose number of steps is not known counts its progress in years")
         progress.start(steps - first, label)
     else:
         progress.start(years, label, unit="years")
-    for k in range(first, last):
+    k = first
+    while k < last:
         report = stepper.step(k)
+        k += 1
         progress.advance(report.info, report.done)
-        stop = k + 1 < steps and (k + 1 == last or progress.cancelled())
-        if checkpoints.path is not None and ((k + 1) % checkpoints.every == 0 or stop):
-            write_state_checkpoint(checkpoints.path, checkpoints.fingerprint, k + 1, stepper.state())
-        if stop:
-            return Stepped(k + 1, first, False)
-    return Stepped(max(first, last), first, max(first, last) >= steps)
+        ended = report.last or k >= end
+        stop = not ended and (k == last or progress.cancelled())
+        if checkpoints.path is not None and (k % checkpoints.every == 0 or stop):
+            write_state_checkpoint(checkpoints.path, checkpoints.fingerprint, k, stepper.state())
+        if ended or stop:
+            return Stepped(k, first, ended)
+    return Stepped(k, first, k >= end)
 
 
 def finish_checkpoints(checkpoints: Checkpoints, stepped: Stepped) -> None:
@@ -102,7 +111,7 @@ def finish_checkpoints(checkpoints: Checkpoints, stepped: Stepped) -> None:
         checkpoints.path.unlink(missing_ok=True)
 
 
-def _resumed(stepper: Stepper, steps: int, progress: Progress, checkpoints: Checkpoints) -> int:
+def _resumed(stepper: Stepper, steps: int | None, progress: Progress, checkpoints: Checkpoints) -> int:
     """Steps already done: 0, or with ``resume`` those of this run's checkpoint (restored)."""
     path = checkpoints.path
     if path is None or not checkpoints.resume:
@@ -115,5 +124,5 @@ def _resumed(stepper: Stepper, steps: int, progress: Progress, checkpoints: Chec
         raise InputError(f"the checkpoint {path} belongs to a run with other inputs or options; run "
                          "without --resume (or with the same options).")
     stepper.restore(state)
-    progress.note(f"note: resuming after step {done} of {steps}.")
+    progress.note(f"note: resuming after step {done}" + (f" of {steps}." if steps is not None else "."))
     return done
