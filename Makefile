@@ -15,7 +15,7 @@ venv: $(STAMP)
 $(STAMP): pyproject.toml Makefile
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,mesh]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,mesh,xarray]'
 	$(BIN)/python -m pip install --quiet 'fastscapelib>=0.3' \
 		|| echo "fastscapelib unavailable: its anchor tests and bench comparisons are skipped"
 	touch $(STAMP)

@@ -91,3 +91,14 @@ def test_an_array_parameter_is_a_raster_on_the_grid(tmp_path: Path) -> None:
     eroded = api.erode(data, cell_size=30.0, dt=500.0, steps=2, K=k, outlets="S")
     change = eroded - data
     assert np.nanmax(np.abs(change[:, :40])) < np.nanmax(np.abs(change[:, 56:]))
+
+
+def test_a_dataarray_keeps_its_coordinates_and_crs(tmp_path: Path) -> None:
+    rioxarray = pytest.importorskip("rioxarray")
+    dem, data = _float64_dem(tmp_path)
+    grid = rioxarray.open_rasterio(dem).squeeze("band", drop=True)
+    eroded = api.erode(grid, dt=500.0, steps=2, K=2e-5)
+    assert eroded.rio.crs == grid.rio.crs and eroded.rio.transform() == grid.rio.transform()
+    assert np.array_equal(eroded.x, grid.x) and np.array_equal(eroded.y, grid.y)
+    cli = _cli_result(tmp_path, "erode", dem, "--dt", 500, "--steps", 2, "--K", 2e-5)
+    assert np.array_equal(eroded.values, cli, equal_nan=True)
