@@ -55,6 +55,7 @@ import math
 import time as clock
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -555,8 +556,8 @@ class RunResult:
     length, ``surface_overshoot``), and ``seconds``: wall-clock time by part of the loop
     (``WALL_TIME_PARTS``: the ice flow, transport with mass balance and erosion, the processes of
     ice-free ground, and the rest: the checks and callbacks of ``run``). ``cap`` (y): the longest
-    next step the ramp and the rejected steps allow (``run``), kept so that a run continued from
-    this result (a checkpoint) takes the steps an uninterrupted one would."""
+    next step the ramp and the rejected steps allow (``Stepping``), kept so that a run continued
+    from this result (a checkpoint) takes the steps an uninterrupted one would."""
 
     state: GlacierState
     times: list[float]
@@ -587,67 +588,138 @@ class RunResult:
         self.seconds["ice_flow"] += report.flow_seconds
         self.seconds["transport_erosion"] += report.transport_seconds
 
+    def saved(self) -> dict[str, Any]:
+        """The run as NumPy arrays (bed, ice, the last lattice velocities: ``lattice_u``,
+        ``lattice_v``, empty for none) and numbers, lists and mappings of them (the time, the
+        volume series, the totals with the step cap, the wall-time parts): what a checkpoint
+        keeps, every float exact; ``restored`` takes it back."""
+        state = self.state
+        lattice = state.lattice if state.lattice is not None else (np.zeros(0), np.zeros(0))
+        return {"bed": state.bed, "thickness": state.thickness, "time": state.time,
+                "lattice_u": lattice[0], "lattice_v": lattice[1], "series_times": list(self.times),
+                "series_volumes": list(self.volumes),
+                "totals": {name: getattr(self, name) for name in _RESULT_TOTALS},
+                "seconds": dict(self.seconds)}
 
-def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times: Sequence[float],
-        on_step: Callable[[GlacierState, StepReport], None] | None = None,
-        check: Callable[[GlacierState, StepReport, int], bool | None] | None = None,
-        after: Callable[[GlacierState, float], GlacierState] | None = None,
-        result: RunResult | None = None) -> RunResult:
-    """Step ``state`` to each of the end ``times`` (y, increasing, e.g. ``step_times``) in turn,
-    calling ``on_step(new_state, report)`` at each of them (progress, snapshots), and
-    ``check(new_state, report, k)`` after every step k (1, 2, …) taken, ramp steps included
-    (e.g. a divergence guard that raises, so that a run stops at the step where it diverges);
-    when ``check`` returns True the run ends there (e.g. cancelled, or a step budget spent), and
-    the result holds the steps taken so far.
-    ``after(state, dt)``, when given, follows every glacier step of length dt with other
-    processes and returns the state they leave (``cycle.IceFreeErosion``).
+    @classmethod
+    def restored(cls, saved: dict[str, Any]) -> RunResult:
+        """The run that ``saved`` gave (extra keys are ignored)."""
+        lattice = (saved["lattice_u"], saved["lattice_v"]) if np.size(saved["lattice_u"]) else None
+        state = GlacierState(np.asarray(saved["bed"]), np.asarray(saved["thickness"]), float(saved["time"]),
+                             lattice)
+        seconds = {**dict.fromkeys(WALL_TIME_PARTS, 0.0), **saved["seconds"]}
+        return cls(state, list(map(float, saved["series_times"])), list(map(float, saved["series_volumes"])),
+                   seconds=seconds, **saved["totals"])
+
+
+#: The totals of a ``RunResult`` that ``RunResult.saved`` keeps (besides ``seconds``).
+_RESULT_TOTALS = ("steps", "substeps", "resolves", "evaluations", "unconverged", "max_residual", "eroded",
+                  "retries", "cap")
+
+
+class Stepping:
+    """A coupled run as a sequence of accepted steps towards the end ``times`` (y, increasing,
+    e.g. ``step_times``): ``advance`` takes the next one; the caller owns the loop (``run``, or
+    a job's stepping loop with checkpoints).
 
     Cold starts: with multi-scale transport, whenever a step starts without ice, the steps are
     cut to ``RAMP_START`` years and grow by ``RAMP_FACTOR`` per step until they reach the times
     asked (``multiscale``: laying a long step of accumulation at once leaves a steep edge that
     can blow up). Rejected steps: a multi-scale step that creates ice (``surface_overshoot``) is
     thrown away and taken again at half its length (not below ``RETRY_MIN_DT``), and the steps
-    then grow back by ``RAMP_FACTOR`` per step. Every step taken enters the volume series.
+    then grow back by ``RAMP_FACTOR`` per step. Every accepted step enters the volume series.
+    ``after(state, dt)``, when given, follows every accepted glacier step of length dt with other
+    processes and returns the state they leave (``cycle.IceFreeErosion``).
 
     ``result``: a run to continue (from a checkpoint: ``state`` is its ``result.state``); its
-    series, totals and step cap go on."""
-    params.validate(grid.shape)
-    started = clock.perf_counter()
-    if result is None:
-        result = RunResult(state, [state.time], [ice_volume(state.thickness, grid)])
-    timed_before = sum(result.seconds.values())
-    cap = result.cap
-    ramp = params.transport == "multiscale"
-    stop = False
-    for end in times:
-        end = float(end)
-        while state.time < end and not stop:
-            if ramp and not np.any(state.thickness[grid.valid] > 0):
+    series, totals and step cap (``RunResult.cap``) go on, so the steps are those an
+    uninterrupted run takes. ``state`` is the state reached, ``result`` the run so far."""
+
+    def __init__(self, state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela,
+                 times: Sequence[float], after: Callable[[GlacierState, float], GlacierState] | None = None,
+                 result: RunResult | None = None) -> None:
+        params.validate(grid.shape)
+        self.grid, self.params, self.ela, self.after = grid, params, ela, after
+        self.times = [float(end) for end in times]
+        self.state = state
+        self.result = result if result is not None else RunResult(
+            state, [state.time], [ice_volume(state.thickness, grid)])
+        self.ramp = params.transport == "multiscale"
+
+    def next_end(self) -> float | None:
+        """The end time (y) the next step goes towards: the first of ``times`` after the state's
+        time; None when the run has reached the last."""
+        for end in self.times:
+            if self.state.time < end:
+                return end
+        return None
+
+    @property
+    def finished(self) -> bool:
+        """Whether the state has reached the last of ``times``."""
+        return self.next_end() is None
+
+    def advance(self) -> StepReport:
+        """Take the next accepted step (rejected ones taken again shorter first) towards
+        ``next_end``, then ``after``; the state ends exactly on that end time when the step
+        reaches it. Returns the accepted step's report; ValueError when the run is finished."""
+        end = self.next_end()
+        if end is None:
+            raise ValueError(f"the run has reached its end, t = {self.state.time:g} y")
+        grid, params, result, state = self.grid, self.params, self.result, self.state
+        cap = result.cap
+        while True:
+            if self.ramp and not np.any(state.thickness[grid.valid] > 0):
                 cap = RAMP_START
             length = min(end - state.time, cap)
             if end - state.time - length <= 1e-9 * length:
                 length = end - state.time
-            new, report = step(state, grid, params, ela, length)
-            if (ramp and length > RETRY_MIN_DT
+            new, report = step(state, grid, params, self.ela, length)
+            if not (self.ramp and length > RETRY_MIN_DT
                     and surface_overshoot(state, new, grid, params, length) > OVERSHOOT_TOLERANCE_M):
-                cap = 0.5 * length
-                result.retries += 1
-                continue
-            state = new
-            if after is not None:
-                lap = Stopwatch(result.seconds)
-                state = after(state, length)
-                lap.lap("ice_free")
-            if state.time >= end - 1e-9 * length:
-                state = replace(state, time=end)
-            result.add(state, report)
-            cap *= RAMP_FACTOR
-            result.cap = cap
-            stop = check is not None and bool(check(state, report, result.steps))
+                break
+            cap = 0.5 * length
+            result.retries += 1
+        state = new
+        if self.after is not None:
+            lap = Stopwatch(result.seconds)
+            state = self.after(state, length)
+            lap.lap("ice_free")
+        if state.time >= end - 1e-9 * length:
+            state = replace(state, time=end)
+        result.add(state, report)
+        cap *= RAMP_FACTOR
+        result.cap = cap
+        self.state = state
+        return report
+
+
+def run(state: GlacierState, grid: Grid, params: CoupledParams, ela: Ela, times: Sequence[float],
+        on_step: Callable[[GlacierState, StepReport], None] | None = None,
+        check: Callable[[GlacierState, StepReport, int], bool | None] | None = None,
+        after: Callable[[GlacierState, float], GlacierState] | None = None,
+        result: RunResult | None = None) -> RunResult:
+    """Step ``state`` to each of the end ``times`` (y, increasing, e.g. ``step_times``) in turn
+    (``Stepping``: cold-start ramp, rejected steps, ``after``), calling ``on_step(new_state,
+    report)`` at each of them (progress, snapshots), and ``check(new_state, report, k)`` after
+    every step k (1, 2, …) taken, ramp steps included (e.g. a divergence guard that raises, so
+    that a run stops at the step where it diverges); when ``check`` returns True the run ends
+    there (e.g. cancelled, or a step budget spent), and the result holds the steps taken so far.
+    ``result``: a run to continue (``Stepping``)."""
+    started = clock.perf_counter()
+    stepping = Stepping(state, grid, params, ela, times, after, result)
+    result = stepping.result
+    timed_before = sum(result.seconds.values())
+    report: StepReport | None = None
+    for end in stepping.times:
+        stop = False
+        while stepping.state.time < end and not stop:
+            report = stepping.advance()
+            stop = check is not None and bool(check(stepping.state, report, result.steps))
         if stop:
             break
-        if on_step is not None:
-            on_step(state, report)
+        if on_step is not None and report is not None:
+            on_step(stepping.state, report)
     timed = sum(result.seconds.values()) - timed_before
     result.seconds["other"] += clock.perf_counter() - started - timed
     return result

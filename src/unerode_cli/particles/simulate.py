@@ -4,7 +4,9 @@ particles' impacts in particle order. ``run_kinds`` does the same for several ki
 particles at once (003 Fig. 8: rain, wind and a river in one run), each with its own
 parameters, emission and medium velocity: within an iteration the kinds are traced in their
 given order, every one against the terrain as it stood at the start of the iteration, and
-their impacts applied kind after kind.
+their impacts applied kind after kind. ``ParticleIterations`` is such a run one iteration at
+a time, whose state (``state`` / ``restore``: the terrain's arrays, ``terrain_state``, the
+budget sums, counts and sampled paths) lets a stopped run go on bit for bit.
 
 Determinism: a particle's random numbers come from its own stream keyed by (seed of its kind,
 iteration, particle index) and the terrain is frozen while a batch is traced, so what a particle does does
@@ -20,6 +22,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from dataclasses import field as dataclass_field
+from typing import Any
 
 import numpy as np
 
@@ -391,45 +394,196 @@ def run_kinds(terrain: Terrain, kinds: Sequence[ParticleKind], *, iterations: in
     With ``apply`` ``PER_IMPACT`` the kinds' particles are traced one after the other, each on
     the terrain as the impacts before it left it (see ``run``).
 
+    The iterations are those of :class:`ParticleIterations`, which also runs them one at a time
+    and saves and restores a run between them.
+
     Returns:
         As ``run``, with ``kinds`` the budget and counts of each kind; ``budget`` and ``stats``
         are their totals, and the paths are numbered within an iteration across the kinds
         (kind j's particle i is index Σ_{k<j} count_k + i).
     """
-    grid = terrain.grid
-    _check_run_args(iterations, seed, paths, path_stride, sea_level)
-    if apply not in APPLY_MODES:
-        raise ValueError(f"impacts apply {' or '.join(APPLY_MODES)}, not {apply!r}")
-    tracers = _tracers(kinds, grid, seed, sea_level)
-    per_iteration = sum(t.count for t in tracers)
-    total = iterations * per_iteration
-    chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
-    work = terrain.copy()
-    batches = _Batches(work, chosen, per_iteration, path_stride)
-    done = 0
-    for iteration in range(iterations):
+    steps = ParticleIterations(terrain, kinds, iterations=iterations, seed=seed, sea_level=sea_level,
+                               paths=paths, path_stride=path_stride, apply=apply)
+    while steps.done < iterations:
         if cancelled is not None and cancelled():
             break
-        snapshots: dict[tuple[float, float], TracingSnapshot] = {}
-        for tracer in tracers:  # all taken before any kind alters the terrain
-            if apply == PER_ITERATION and tracer.material_key not in snapshots:
-                snapshots[tracer.material_key] = work.tracing_snapshot(tracer.default)
-        for tracer in tracers:
-            if apply == PER_IMPACT:  # on the terrain as the impacts before left it
-                snap = work.tracing_snapshot(tracer.default)
-                live = work.live_state(snap)
-                batches.run(tracer, snap, iteration, live)
-                work.absorb(snap, live)
-            else:
-                batches.run(tracer, snapshots[tracer.material_key], iteration)
-        done = iteration + 1
+        done = steps.iterate()
         if on_iteration is not None:
             on_iteration(done)
-    new_surface = work.surface()
-    dh = np.where(grid.valid, new_surface - terrain.surface(), 0.0)
-    by_kind = tuple(KindRun(t.kind.name, _budget(t.sums), _stats(done * t.count, t.impacts, t.fates))
-                    for t in tracers)
-    fates = np.sum([t.fates for t in tracers], axis=0)
-    stats = _stats(done * per_iteration, sum(t.impacts for t in tracers), fates)
-    budget = _budget([batch for t in tracers for batch in t.sums])
-    return ParticleRun(work, new_surface, dh, budget, stats, batches.paths, by_kind, done)
+    return steps.result()
+
+
+class ParticleIterations:
+    """A run of ``run_kinds`` (same arguments, but the callbacks) one iteration at a time:
+    ``iterate`` runs the next iteration, ``result`` gives what the iterations so far did, and
+    ``state`` / ``restore`` save and take back everything the next iterations depend on, so
+    that a run restored after ``done`` iterations goes on bit for bit as the run that saved it.
+
+    The state (``state``): the altered terrain's arrays (``terrain_state``), each kind's budget
+    sums per batch (m³, ``kernels.B_*`` columns), impact and fate counts and event capacity,
+    the size of the event buffer, and the sampled paths. There is no random state to keep: a
+    particle's numbers come from its own stream keyed by (seed of its kind, iteration, particle
+    index).
+    """
+
+    def __init__(self, terrain: Terrain, kinds: Sequence[ParticleKind], *, iterations: int = 1, seed: int = 0,
+                 sea_level: float | None = None, paths: int = 0, path_stride: int = 1,
+                 apply: str = PER_ITERATION) -> None:
+        _check_run_args(iterations, seed, paths, path_stride, sea_level)
+        if apply not in APPLY_MODES:
+            raise ValueError(f"impacts apply {' or '.join(APPLY_MODES)}, not {apply!r}")
+        self.terrain, self.iterations, self.apply = terrain, iterations, apply
+        self.tracers = _tracers(kinds, terrain.grid, seed, sea_level)
+        per_iteration = sum(t.count for t in self.tracers)
+        total = iterations * per_iteration
+        chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
+        self.work = terrain.copy()
+        self.batches = _Batches(self.work, chosen, per_iteration, path_stride)
+        #: iterations done
+        self.done = 0
+
+    def iterate(self) -> int:
+        """Run the next iteration (``done``, 0-based); returns the iterations done."""
+        iteration, work = self.done, self.work
+        if iteration >= self.iterations:
+            raise ValueError(f"the run has done its {self.iterations} iterations")
+        snapshots: dict[tuple[float, float], TracingSnapshot] = {}
+        for tracer in self.tracers:  # all taken before any kind alters the terrain
+            if self.apply == PER_ITERATION and tracer.material_key not in snapshots:
+                snapshots[tracer.material_key] = work.tracing_snapshot(tracer.default)
+        for tracer in self.tracers:
+            if self.apply == PER_IMPACT:  # on the terrain as the impacts before left it
+                snap = work.tracing_snapshot(tracer.default)
+                live = work.live_state(snap)
+                self.batches.run(tracer, snap, iteration, live)
+                work.absorb(snap, live)
+            else:
+                self.batches.run(tracer, snapshots[tracer.material_key], iteration)
+        self.done = iteration + 1
+        return self.done
+
+    def result(self) -> ParticleRun:
+        """What the iterations done so far did (its ``terrain`` is the run's working terrain)."""
+        grid, done, tracers = self.terrain.grid, self.done, self.tracers
+        new_surface = self.work.surface()
+        dh = np.where(grid.valid, new_surface - self.terrain.surface(), 0.0)
+        by_kind = tuple(KindRun(t.kind.name, _budget(t.sums), _stats(done * t.count, t.impacts, t.fates))
+                        for t in tracers)
+        fates = np.sum([t.fates for t in tracers], axis=0)
+        stats = _stats(done * sum(t.count for t in tracers), sum(t.impacts for t in tracers), fates)
+        budget = _budget([batch for t in tracers for batch in t.sums])
+        return ParticleRun(self.work, new_surface, dh, budget, stats, list(self.batches.paths), by_kind, done)
+
+    def state(self) -> dict[str, Any]:
+        """The run after ``done`` iterations: NumPy arrays and JSON values (numbers, text, lists)
+        under names of their own, the terrain's under ``terrain.*``."""
+        from unerode_cli.particles import kernels
+
+        paths = self.batches.paths
+        state: dict[str, Any] = {
+            "iterations_done": self.done,
+            "event_buffer": list(self.batches.buffer.shape[:2]),
+            "kinds": [{"capacity": t.capacity, "impacts": t.impacts, "fates": [int(n) for n in t.fates]}
+                      for t in self.tracers],
+            "paths": [[p.iteration, p.index, len(p.points), p.fate] for p in paths],
+            "path_points": np.concatenate([p.points for p in paths]) if paths else np.zeros((0, 4)),
+            **terrain_state(self.work),
+        }
+        for j, tracer in enumerate(self.tracers):
+            state[f"kind{j}_sums"] = np.array(tracer.sums, dtype=np.float64).reshape(-1, kernels.N_BUDGET)
+        return state
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Take back a state that ``state`` gave (of a run with the same arguments)."""
+        kinds = state["kinds"]
+        if len(kinds) != len(self.tracers):
+            raise ValueError(f"the state has {len(kinds)} kinds of particles, the run {len(self.tracers)}")
+        self.done = int(state["iterations_done"])
+        rows, width = (int(n) for n in state["event_buffer"])
+        self.batches.buffer = np.empty((rows, width, 4))
+        for j, (tracer, saved) in enumerate(zip(self.tracers, kinds, strict=True)):
+            tracer.capacity, tracer.impacts = int(saved["capacity"]), int(saved["impacts"])
+            tracer.fates = np.array(saved["fates"], dtype=np.int64)
+            tracer.sums = [[float(v) for v in row] for row in np.asarray(state[f"kind{j}_sums"])]
+        points = np.asarray(state["path_points"], dtype=np.float64)
+        ends = np.cumsum([0] + [int(p[2]) for p in state["paths"]])
+        self.batches.paths = [ParticlePath(int(i), int(index), points[start:stop].copy(), str(fate))
+                              for (i, index, _, fate), start, stop
+                              in zip(state["paths"], ends[:-1], ends[1:], strict=True)]
+        restore_terrain(self.work, state)
+
+
+def terrain_state(terrain: Terrain) -> dict[str, Any]:
+    """What a terrain particles alter holds that a run changes, under ``terrain.*`` names:
+    the heights of a heightfield (m); the base (m), layer thicknesses (m) and layer materials
+    of a layered terrain; the densities or solid flags and hit counts, the material index and
+    what left the grid (m³) or the hit counters of voxels; the node cache (m), the pending
+    metaballs and the flattened base of an implicit terrain."""
+    from unerode_cli.particles.sdf_terrain import SdfTerrain
+    from unerode_cli.particles.terrain import HeightfieldTerrain, LayeredTerrain
+    from unerode_cli.particles.voxel_terrain import BinaryTerrain, DensityTerrain, VoxelTerrain
+
+    state: dict[str, Any] = {}
+    if isinstance(terrain, HeightfieldTerrain):
+        state["terrain.heights"] = terrain._h
+    elif isinstance(terrain, LayeredTerrain):
+        state.update({"terrain.base": terrain._base, "terrain.thickness": terrain._thickness,
+                      "terrain.layer_material": terrain._layer_material})
+    elif isinstance(terrain, VoxelTerrain):
+        if terrain.voxels.material is not None:
+            state["terrain.material"] = terrain.voxels.material
+        if isinstance(terrain, DensityTerrain):
+            state.update({"terrain.density": terrain.voxels.density, "terrain.left": terrain.left})
+        elif isinstance(terrain, BinaryTerrain):
+            state.update({"terrain.solid": terrain.voxels.solid, "terrain.hits": terrain.voxels.hits,
+                          "terrain.counters": [int(n) for n in terrain.counters]})
+    elif isinstance(terrain, SdfTerrain):
+        state.update({"terrain.cache": terrain.field.cache, "terrain.balls": terrain.field.balls,
+                      "terrain.flattened": terrain.field.base.grid})
+    if not state:
+        raise ValueError(f"a {type(terrain).__name__} cannot be saved")
+    return state
+
+
+def restore_terrain(terrain: Terrain, state: dict[str, Any]) -> None:
+    """Put a ``terrain_state`` back into ``terrain``, a copy of the terrain the run began with
+    (arrays written in place, so that their types and what refers to them stay)."""
+    from unerode_cli.particles.sdf_terrain import SdfTerrain
+    from unerode_cli.particles.terrain import HeightfieldTerrain, LayeredTerrain
+    from unerode_cli.particles.voxel_terrain import BinaryTerrain, DensityTerrain, VoxelTerrain
+
+    if isinstance(terrain, HeightfieldTerrain):
+        _put(terrain._h, state["terrain.heights"])
+    elif isinstance(terrain, LayeredTerrain):
+        for target, name in ((terrain._base, "base"), (terrain._thickness, "thickness"),
+                             (terrain._layer_material, "layer_material")):
+            _put(target, state[f"terrain.{name}"])
+    elif isinstance(terrain, VoxelTerrain):
+        if terrain.voxels.material is not None:
+            _put(terrain.voxels.material, state["terrain.material"])
+        if isinstance(terrain, DensityTerrain):
+            _put(terrain.voxels.density, state["terrain.density"])
+            terrain.left = float(state["terrain.left"])
+        elif isinstance(terrain, BinaryTerrain):
+            _put(terrain.voxels.solid, state["terrain.solid"])
+            _put(terrain.voxels.hits, state["terrain.hits"])
+            terrain.counters[...] = np.array(state["terrain.counters"], dtype=np.int64)
+    elif isinstance(terrain, SdfTerrain):
+        from unerode_cli.volume.sdf_field import Base
+
+        field = terrain.field
+        _put(field.cache, state["terrain.cache"])
+        field.balls = np.array(state["terrain.balls"], dtype=np.float64, order="C")
+        flattened = np.asarray(state["terrain.flattened"])
+        if flattened.size:
+            field.base = Base.of_grid(flattened)
+    else:
+        raise ValueError(f"a {type(terrain).__name__} cannot be restored")
+
+
+def _put(target: np.ndarray, saved: np.ndarray) -> None:
+    """Write ``saved`` into ``target`` (same shape)."""
+    saved = np.asarray(saved)
+    if saved.shape != target.shape:
+        raise ValueError(f"a saved array of shape {saved.shape} does not fit the terrain's {target.shape}")
+    target[...] = saved

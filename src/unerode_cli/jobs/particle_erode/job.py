@@ -25,8 +25,14 @@ matter added by design (the particles' ``initial_load``: the volcano preset) and
 ``suspended`` matter removed by design (``keep_suspended``: the coastal preset's corrosion);
 for the other presets both are 0 and detached = deposited + lost.
 
-A cancelled run (``Progress.cancelled``, asked before each iteration) stops after the
-iteration it is in and writes what the iterations so far did.
+The iterations run through the shared stepping loop (``run.stepping``), one step each, on
+``particles.simulate.ParticleIterations``: every ``--checkpoint-every`` iterations the run's
+state (the terrain's arrays, the budget sums and counts, the sampled paths) is saved to
+``.OUT.checkpoint.npz`` beside OUT. After ``--max-steps`` iterations of an invocation, or when
+``Progress.cancelled`` says so after an iteration, the run stops with a checkpoint and writes
+nothing else; ``--resume`` continues it, bit for bit the run never stopped (a particle's random
+numbers come from its own stream keyed by seed, iteration and index). A finished run removes
+its checkpoint.
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from unerode_cli.errors import InputError
+from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path
 from unerode_cli.io.particle_kinds import KindSpec
 from unerode_cli.io.paths import OutputPlan, check_output
 from unerode_cli.io.rasters import read_terrain
@@ -56,10 +63,13 @@ from unerode_cli.particles import (
     get_preset,
 )
 from unerode_cli.particles import Terrain as ParticleTerrain
+from unerode_cli.particles.simulate import ParticleIterations
 from unerode_cli.run.declare import declared
 from unerode_cli.run.divergence import DivergenceGuard
+from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import Outputs, check_png, check_raster
+from unerode_cli.run.stepping import NO_CHECKPOINTS, Checkpoints, StepInfo, Stepped, step_through
 
 
 @declared("particle-erode", OPTIONS)
@@ -84,7 +94,8 @@ class PreparedParticleJob:
     """A checked job: inputs read, terrain and kinds of particles (parameters, emission and
     medium) built, every output path cleared; ``surface`` is the terrain's top heightfield
     before the run (the DEM, or a 3D terrain's on its columns), ``provenance`` what the
-    outputs' history records, ``notes`` what the user is told when the run starts."""
+    outputs' history records, ``notes`` what the user is told when the run starts,
+    ``checkpoints`` where and how often the run is checkpointed."""
 
     job: ParticleJob
     dem: Terrain
@@ -97,15 +108,19 @@ class PreparedParticleJob:
     notes: list[str]
     surface: Terrain
     volume: terrains.VoxelSetup | None = None
+    checkpoints: Checkpoints = NO_CHECKPOINTS
 
 
 @dataclass
 class ParticleResult:
-    """The run (``particles.ParticleRun``), its wall time (s) and its statistics for the sidecar."""
+    """The run (``particles.ParticleRun``), its wall time (s, over every invocation), its
+    statistics for the sidecar and how the loop ended (``stepped.finished`` False: stopped by
+    --max-steps or a cancel)."""
 
     run: ParticleRun
     seconds: float
     statistics: dict[str, Any]
+    stepped: Stepped
 
 
 def _inputs(job: ParticleJob, specs: list[KindSpec]) -> tuple[Path, ...]:
@@ -153,6 +168,7 @@ def plan(job: ParticleJob, plan_outputs: OutputPlan | None = None) -> PreparedPa
     if plan_outputs is not None:
         for path in inputs:
             plan_outputs.read(path)
+    check_checkpoint(job.output, job.resume, job.overwrite, inputs)
     outputs, layers_out = _clear_outputs(job, inputs)
     checks.check_counts(job)
     dem = read_terrain(job.source, band=job.band, channel=job.channel)
@@ -183,8 +199,12 @@ def plan(job: ParticleJob, plan_outputs: OutputPlan | None = None) -> PreparedPa
                     part.validate(surface.grid)
     iterations = job.iterations or file_iterations or max(p.iterations for p in presets)
     provenance = _provenance(job, presets, specs, built, representation, iterations, surface, terrain, volume)
+    sampling = {"sampled_paths": job.path_count if job.paths is not None else 0,
+                "path_stride": job.path_stride}
+    checkpoints = Checkpoints(checkpoint_path(job.output), job.checkpoint_every, job.resume,
+                              run_fingerprint({**provenance, **sampling}, inputs))
     return PreparedParticleJob(job, dem, terrain, built, iterations, outputs, layers_out, provenance, notes,
-                               surface, volume)
+                               surface, volume, checkpoints)
 
 
 def _provenance(job: ParticleJob, presets: list[Preset], specs: list[KindSpec],
@@ -211,31 +231,53 @@ def _provenance(job: ParticleJob, presets: list[Preset], specs: list[KindSpec],
     return provenance
 
 
-def run_particles(prepared: PreparedParticleJob, progress: Progress) -> ParticleResult:
-    """The iterations of the run, one progress step each, stopped early (with what the
-    iterations so far did) when ``progress.cancelled()`` says so; the result is checked for a
-    runaway surface and its statistics are computed."""
-    import numba
+class ParticleSteps:
+    """The iterations of a run as the stepping loop drives them (``run.stepping.Stepper``):
+    ``ParticleIterations``' state, and the wall time (s) of the invocations before this one."""
 
-    from unerode_cli.particles import run_kinds
+    def __init__(self, prepared: PreparedParticleJob) -> None:
+        job = prepared.job
+        self.iterations = ParticleIterations(
+            prepared.terrain, prepared.kinds, iterations=prepared.iterations, seed=job.seed,
+            sea_level=job.sea_level, paths=job.path_count if job.paths is not None else 0,
+            path_stride=job.path_stride, apply=job.apply)
+        self.seconds_before = 0.0
+        self.start = time.perf_counter()
+
+    def step(self, k: int) -> StepInfo:
+        assert k == self.iterations.done
+        return StepInfo(f"iteration {self.iterations.iterate()}")
+
+    def seconds(self) -> float:
+        """Wall time (s) of the run over every invocation so far."""
+        return self.seconds_before + time.perf_counter() - self.start
+
+    def state(self) -> dict[str, Any]:
+        return {**self.iterations.state(), "wall_time_s": self.seconds()}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        self.iterations.restore(state)
+        self.seconds_before = float(state["wall_time_s"])
+
+
+def run_particles(prepared: PreparedParticleJob, progress: Progress) -> ParticleResult:
+    """The iterations of the run, one step each of the shared stepping loop (checkpoints,
+    resume, --max-steps, cancel); the result is checked for a runaway surface and its
+    statistics are computed."""
+    import numba
 
     job, surface = prepared.job, prepared.surface
     for note in prepared.notes:
         progress.note(note)
     if job.threads is not None:
         numba.set_num_threads(min(job.threads, numba.config.NUMBA_NUM_THREADS))
-    progress.start(prepared.iterations, job.COMMAND)
-
-    def advance(done: int) -> None:
-        progress.advance(f"iteration {done}")
-
-    start = time.perf_counter()
-    result = run_kinds(prepared.terrain, prepared.kinds, iterations=prepared.iterations, seed=job.seed,
-                       sea_level=job.sea_level, paths=job.path_count if job.paths is not None else 0,
-                       path_stride=job.path_stride, on_iteration=advance, apply=job.apply,
-                       cancelled=progress.cancelled)
-    seconds = time.perf_counter() - start
+    steps = ParticleSteps(prepared)
+    stepped = step_through(steps, prepared.iterations, progress, job.COMMAND, prepared.checkpoints,
+                           job.max_steps)
+    result = steps.iterations.result()
+    seconds = steps.seconds()
     progress.finish()
     DivergenceGuard(surface.elevation, hint="lower the particle count or the erosion rates").check(
         result.elevation, 0.0, f"after {result.iterations} iterations")
-    return ParticleResult(result, seconds, writing.statistics(result, surface, seconds, prepared.terrain))
+    return ParticleResult(result, seconds, writing.statistics(result, surface, seconds, prepared.terrain),
+                          stepped)

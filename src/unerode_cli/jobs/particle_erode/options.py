@@ -14,10 +14,13 @@ from pathlib import Path
 from unerode_cli.jobs.particle_erode import parsers
 from unerode_cli.particles.parameters import PARAMETERS
 from unerode_cli.run.common_options import (
+    CHECKPOINT_EVERY,
+    MAX_STEPS,
     OUTPUT,
     OUTPUT_PANEL,
     RASTER_OUTPUT,
     READING,
+    RESUME,
     SEA_LEVEL,
     SEED,
     SOURCE,
@@ -31,6 +34,10 @@ RUN, EMISSION, MEDIUM, TERRAIN = "Run", "Emission", "Medium", "Terrain"
 VOXELS, LAYERED = "Voxels", "Layered terrain"
 #: Memory a voxel run may take unless --memory-budget says otherwise (GiB).
 DEFAULT_MEMORY_BUDGET_GIB = 4.0
+#: Iterations between checkpoints unless --checkpoint-every says otherwise: the presets run 3 to
+#: 100 iterations, so a long run is saved a few times and a short one (10) not at all, while a
+#: voxel terrain's checkpoint (every voxel) is written seldom.
+DEFAULT_CHECKPOINT_EVERY = 25
 
 _RUN = (
     Opt("preset", str, None,
@@ -151,6 +158,15 @@ _OUTPUTS = (
         panel=OUTPUT_PANEL, record=False),
 )
 
+#: The checkpoint options (``common_options.CHECKPOINTS``), counted in iterations.
+_CHECKPOINTS = (
+    dataclasses.replace(CHECKPOINT_EVERY, default=DEFAULT_CHECKPOINT_EVERY, help="Write a checkpoint "
+                        "(.OUT.checkpoint.npz beside OUT) every this many iterations."),
+    RESUME,
+    dataclasses.replace(MAX_STEPS, help="Stop after this many iterations of this invocation (checkpointed; "
+                        "continue with --resume)."),
+)
+
 OPTIONS = (
     SOURCE,
     OUTPUT,
@@ -161,6 +177,7 @@ OPTIONS = (
     *_VOXELS,
     *_LAYERED,
     *_OUTPUTS,
+    *_CHECKPOINTS,
     *READING,
     *RASTER_OUTPUT,
 ) + parameter_options({PARAMETER_PANEL: PARAMETERS})

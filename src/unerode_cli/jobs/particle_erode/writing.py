@@ -22,6 +22,7 @@ from unerode_cli.io.voxel_files import VoxelFile, write_voxels
 from unerode_cli.particles import BinaryTerrain, DensityTerrain, LayeredTerrain, ParticleRun, SdfTerrain
 from unerode_cli.particles import Terrain as ParticleTerrain
 from unerode_cli.run.outputs import Outputs, field_preview, save
+from unerode_cli.run.stepping import finish_checkpoints
 from unerode_cli.viz.particles_preview import save_particles_preview
 from unerode_cli.volume.mesh import MeshExtraMissing, enclosed_volume, marching_cubes_function
 from unerode_cli.volume.voxels import ground_mesh, vertex_normals
@@ -114,8 +115,13 @@ def meshes_available() -> bool:
 
 
 def write_all(prepared: PreparedParticleJob, result: ParticleResult) -> str:
-    """Write every output of the run and return the one-line summary."""
+    """Write every output of a finished run, remove its checkpoint, and return the one-line
+    summary. A run stopped before its end (--max-steps, cancelled) writes nothing more than its
+    checkpoint and says how to go on."""
     job, dem, run = prepared.job, prepared.surface, result.run
+    if not result.stepped.finished:
+        return (f"{COMMAND}: stopped after iteration {result.stepped.done} of {prepared.iterations}; "
+                "run again with --resume to continue.")
     stats = result.statistics
     outputs = prepared.outputs
     mesh_preview = prepared.volume is not None and outputs.preview is not None and meshes_available()
@@ -134,6 +140,7 @@ def write_all(prepared: PreparedParticleJob, result: ParticleResult) -> str:
     per_iteration = prepared.provenance["particles_per_iteration"]
     if job.paths is not None:
         write_paths(job.paths, run.paths, dem, per_iteration)
+    finish_checkpoints(prepared.checkpoints, result.stepped)
     b = run.budget
     return (f"{COMMAND}: {prepared.provenance['preset']} preset on {prepared.provenance['representation']}, "
             f"{run.stats.particles} particles "

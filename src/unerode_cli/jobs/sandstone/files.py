@@ -1,6 +1,7 @@
 """What a `sandstone` job writes in OUT_DIR (through ``io/`` and ``viz/``, atomically):
-``particles.ply``, the top heightfield, ``preview.png``, ``frames.csv``, ``run.json``, the
-snapshots and resumable state of ``--snapshot-every``, and the ``--mesh`` surface."""
+``particles.ply`` (and the snapshots of ``--snapshot-every``), the top heightfield,
+``preview.png``, ``frames.csv``, ``run.json`` and the ``--mesh`` surface. The run's state
+(``state.npz``) is the stepping loop's checkpoint (``jobs/sandstone/frames.py``)."""
 
 from __future__ import annotations
 
@@ -12,9 +13,8 @@ from typing import Any
 import numpy as np
 from affine import Affine
 
-from unerode_cli.io.checkpoints import write_checkpoint
 from unerode_cli.io.csv_tables import write_table
-from unerode_cli.io.json_files import to_json, write_json
+from unerode_cli.io.json_files import write_json
 from unerode_cli.io.mesh_files import write_mesh
 from unerode_cli.io.particle_ply import write_particle_ply
 from unerode_cli.io.paths import atomic_path
@@ -22,7 +22,7 @@ from unerode_cli.io.provenance import append_history, history_entry
 from unerode_cli.io.rasters import write_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.versions import io_library_versions
-from unerode_cli.jobs.sandstone.planning import PreparedSandstone, fingerprint, snapshot_path
+from unerode_cli.jobs.sandstone.planning import PreparedSandstone
 from unerode_cli.jobs.sandstone.source import Source
 from unerode_cli.sandstone.particles import Particles
 from unerode_cli.sandstone.sampling import top_surface
@@ -61,21 +61,6 @@ def write_particles(path: Path, prepared: PreparedSandstone, simulation: Simulat
         "interlocked": p.interlocked, "vegetation": p.vegetation,
     }, comments=(f"unerode-cli {COMMAND}: {prepared.source.description}, frame {simulation.frame}",
                  "stress: -tr(sigma) in MPa (compression positive); erodibility: E in 1/y (002 Eq. 2)"))
-
-
-def write_snapshot(prepared: PreparedSandstone, simulation: Simulation, rows: list[dict[str, Any]]) -> None:
-    """The particles of this frame in ``snapshots/``, and the state a ``--resume`` continues."""
-    write_particles(snapshot_path(prepared.job, simulation.frame), prepared, simulation)
-    write_state(prepared, simulation, rows)
-
-
-def write_state(prepared: PreparedSandstone, simulation: Simulation, rows: list[dict[str, Any]]) -> None:
-    """``state.npz``: the particles' arrays, the frame reached, the seed, the rows of
-    ``frames.csv`` so far, the simulation's change counter and the run's fingerprint."""
-    arrays = {f"particle_{k}": v for k, v in simulation.particles.arrays().items()}
-    write_checkpoint(prepared.paths["state"], **arrays, frame=simulation.frame, seed=prepared.job.seed,
-                     rows=to_json(rows), changes=simulation.changes,
-                     fingerprint=fingerprint(prepared.provenance))
 
 
 def write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: list[dict[str, Any]],

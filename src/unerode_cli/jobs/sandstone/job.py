@@ -5,29 +5,35 @@ Outputs in OUT_DIR: ``particles.ply`` (binary; x y z, nx ny nz, viability, stres
 compression positive), erodibility E in 1/y, layer, surface, deposit, interlocked, vegetation),
 ``top.tif`` or ``top.exr`` (the top heightfield; a DEM's grid and CRS when extruded),
 ``preview.png``, ``frames.csv`` (one row per frame), ``run.json`` (parameters, seed, versions,
-totals), and with ``--snapshot-every N`` the particles every N frames in ``snapshots/`` plus
-``state.npz``, the state a ``--resume`` continues from. ``--mesh OUT.ply|OUT.obj`` adds the
-closed surface mesh of the final particles, coloured by layer (its counts and enclosed volume go
-to ``run.json``).
+totals), and with ``--snapshot-every N`` the particles every N frames in ``snapshots/``.
+``--mesh OUT.ply|OUT.obj`` adds the closed surface mesh of the final particles, coloured by layer
+(its counts and enclosed volume go to ``run.json``).
+
+The frames run through the shared stepping loop (``run/stepping.py``), whose checkpoint is
+``state.npz`` in OUT_DIR: written every ``--checkpoint-every`` frames and when the run stops
+(``--max-steps`` or a cancel), continued by ``--resume`` bit for bit. A stopped run writes the
+outputs of the frames done besides its checkpoint; a finished run removes the checkpoint, unless
+it was started with ``--snapshot-every`` (or continues such a run): then its final state stays
+for a later ``--resume`` with more ``--frames``.
 """
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass
 from typing import Any
 
-from unerode_cli.errors import InputError
+from unerode_cli.io.checkpoints import write_state_checkpoint
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.jobs.sandstone import planning
-from unerode_cli.jobs.sandstone.files import COMMAND, row, write_outputs, write_snapshot, write_state
+from unerode_cli.jobs.sandstone.files import COMMAND, write_outputs
+from unerode_cli.jobs.sandstone.frames import SandstoneFrames
 from unerode_cli.jobs.sandstone.options import OPTIONS
 from unerode_cli.jobs.sandstone.planning import PreparedSandstone
 from unerode_cli.jobs.sandstone.source import check_memory, check_sources, read_source, scene_path
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
-from unerode_cli.sandstone.particles import Particles
+from unerode_cli.run.stepping import Stepped, finish_checkpoints, step_through
 from unerode_cli.sandstone.simulation import Simulation
 
 
@@ -42,7 +48,7 @@ class SandstoneJob(Job):
     def plan(self, outputs: OutputPlan) -> PreparedSandstone:
         """Check the whole job before any work: options, OUT_DIR, the scene or DEM, parameters,
         whether the particles fit in memory (estimated, before sampling) and, with --resume, the
-        state it continues; then create OUT_DIR and clear its files."""
+        checkpoint it continues; then create OUT_DIR and clear its files."""
         planning.check_options(self)
         scene_file = scene_path(self.scene)
         if scene_file is not None:
@@ -56,54 +62,45 @@ class SandstoneJob(Job):
         params = planning.simulation_params(self, source)
         check_memory(source)
         provenance = planning.provenance(self, source, params)
-        state = planning.resume_state(self, paths, provenance) if self.resume else None
+        checkpoints = planning.checkpoints(self, paths, scene_file, provenance)
+        if self.resume:
+            planning.check_resume(self, checkpoints)
         planning.clear_outputs(self, paths, outputs)
-        return PreparedSandstone(self, source, params, paths, provenance, state)
+        return PreparedSandstone(self, source, params, paths, provenance, checkpoints)
 
     def run(self, planned: PreparedSandstone, progress: Progress) -> SandstoneResult:
         return run_frames(planned, progress)
 
     def write(self, result: SandstoneResult, outputs: OutputPlan) -> str:
-        write_outputs(result.prepared, result.simulation, result.rows, result.seconds, result.sampled)
+        write_outputs(result.prepared, result.simulation, result.rows, result.seconds, result.frames.sampled)
+        end_checkpoints(result)
         return summary(result)
 
 
 @dataclass
 class SandstoneResult:
-    """The simulation after its last frame, the rows of ``frames.csv``, the wall time of the run
-    and of its sampling (s), and whether it stopped before ``--frames`` (cancelled)."""
+    """The frames run (the simulation after its last frame and the rows of ``frames.csv``), the
+    wall time of the run (s) and how the loop ended (``stepped.finished`` False: stopped by
+    --max-steps or a cancel before ``--frames``)."""
 
     prepared: PreparedSandstone
-    simulation: Simulation
-    rows: list[dict[str, Any]]
+    frames: SandstoneFrames
     seconds: float
-    sampled: float
-    stopped: bool
+    stepped: Stepped
 
+    @property
+    def simulation(self) -> Simulation:
+        return self.frames.simulation
 
-def start_simulation(prepared: PreparedSandstone) -> tuple[Simulation, list[dict[str, Any]]]:
-    """The simulation at its first frame (particles sampled with the job's seed), or at the
-    frame of the resumed state with its rows of ``frames.csv``."""
-    job, source, state = prepared.job, prepared.source, prepared.resume_state
-    if state is None:
-        particles = source.build(job.seed)
-        if len(particles) == 0:
-            raise InputError(f"{source.description} has no particle inside the domain.")
-        return Simulation(particles, source.layers, source.rock, source.lattice, prepared.params,
-                          job.seed), []
-    particles = Particles.from_arrays({k[len("particle_"):]: v for k, v in state.items()
-                                       if k.startswith("particle_")})
-    simulation = Simulation(particles, source.layers, source.rock, source.lattice, prepared.params,
-                            job.seed, int(state["frame"]))
-    simulation.changes = state["changes"]
-    return simulation, json.loads(str(state["rows"]))
+    @property
+    def rows(self) -> list[dict[str, Any]]:
+        return self.frames.rows
 
 
 def run_frames(prepared: PreparedSandstone, progress: Progress) -> SandstoneResult:
-    """Sample (or resume) and run the frames up to ``--frames``, writing a snapshot and the
-    resumable state every ``--snapshot-every`` frames. When ``progress`` says cancelled, the
-    run stops after the current frame (with --snapshot-every, its state is written so that
-    --resume continues it)."""
+    """Sample the particles (or resume the checkpoint) and run the frames up to ``--frames``
+    through the shared stepping loop: checkpoints, ``--max-steps`` and a cancel stop the run
+    after a frame, with its state in ``state.npz``."""
     import numba
 
     job, source = prepared.job, prepared.source
@@ -112,35 +109,36 @@ def run_frames(prepared: PreparedSandstone, progress: Progress) -> SandstoneResu
     progress.note(f"{source.description}: about {source.expected:,.0f} particles, lattice spacing "
                   f"{source.lattice.spacing:.3g} m")
     start = time.perf_counter()
-    simulation, rows = start_simulation(prepared)
-    sampled = time.perf_counter() - start
-    progress.start(job.frames - simulation.frame, COMMAND)
-    stopped = saved = False
-    while simulation.frame < job.frames:
-        if progress.cancelled():
-            stopped = True
-            break
-        stats = simulation.step()
-        rows.append(row(stats))
-        progress.advance(f"{stats.particles:,} particles, {stats.eroded} eroded, "
-                         f"{1.0 / max(sum(stats.seconds.values()), 1e-9):.2g} frames/s")
-        saved = bool(job.snapshot_every) and stats.frame % job.snapshot_every == 0
-        if saved:
-            write_snapshot(prepared, simulation, rows)
+    frames = SandstoneFrames(prepared)
+    if not job.resume:
+        frames.sample()
+    stepped = step_through(frames, job.frames, progress, COMMAND, prepared.checkpoints, job.max_steps)
     progress.finish()
-    if stopped and job.snapshot_every and not saved:
-        write_state(prepared, simulation, rows)
-    return SandstoneResult(prepared, simulation, rows, time.perf_counter() - start, sampled, stopped)
+    return SandstoneResult(prepared, frames, time.perf_counter() - start, stepped)
+
+
+def end_checkpoints(result: SandstoneResult) -> None:
+    """After the outputs are written: a finished run removes its checkpoint, or when it keeps its
+    final state (``SandstoneFrames.keep``) writes that state there (for a ``--resume`` with more
+    frames); a stopped run keeps the checkpoint the loop wrote."""
+    checkpoints, stepped = result.prepared.checkpoints, result.stepped
+    if not (stepped.finished and result.frames.keep):
+        finish_checkpoints(checkpoints, stepped)
+    elif checkpoints.path is not None and stepped.done % checkpoints.every != 0:
+        write_state_checkpoint(checkpoints.path, checkpoints.fingerprint, stepped.done, result.frames.state())
 
 
 def summary(result: SandstoneResult) -> str:
     """One line: the particles left, the frames run, eroded and exported counts, the interlocked
-    share, the wall time and OUT_DIR."""
+    share, the wall time and OUT_DIR; a stopped run says how to continue it."""
     job, simulation, rows = result.prepared.job, result.simulation, result.rows
     final = simulation.particles
     counts = (f"{sum(r['eroded'] for r in rows):,} eroded, {sum(r['exported'] for r in rows):,} exported; "
               f"{float(final.interlocked.mean()) if len(final) else 0.0:.1%} interlocked")
-    frames = (f"{simulation.frame} of {job.frames} frames (stopped early; {counts})" if result.stopped
-              else f"{simulation.frame} frames ({counts})")
+    if result.stepped.finished:
+        frames, resume = f"{simulation.frame} frames ({counts})", ""
+    else:
+        frames = f"{simulation.frame} of {job.frames} frames (stopped early; {counts})"
+        resume = "; run again with --resume to continue"
     return (f"{COMMAND}: {result.prepared.source.description}, {len(final):,} particles after {frames} in "
-            f"{result.seconds:.1f} s; wrote {job.out_dir}")
+            f"{result.seconds:.1f} s; wrote {job.out_dir}{resume}")

@@ -12,7 +12,17 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from unerode_cli.run.common_options import BAND, CHANNEL, METRES, OVERWRITE, POSITIVE_YEARS, SEED
+from unerode_cli.run.common_options import (
+    BAND,
+    CHANNEL,
+    CHECKPOINT_EVERY,
+    CHECKPOINT_PANEL,
+    MAX_STEPS,
+    METRES,
+    OVERWRITE,
+    POSITIVE_YEARS,
+    SEED,
+)
 from unerode_cli.run.declare import Opt, parameter_options
 from unerode_cli.run.values import Number, Numbers
 from unerode_cli.sandstone.layers import LAYER_PARAMETERS, ROCK_PARAMETERS
@@ -84,15 +94,21 @@ OPTIONS = (
         choices=COLOR_BY, panel=OUTPUTS, record=False),
     Opt("top_format", str, "tif", "Format of the top heightfield: tif (GeoTIFF) or exr.", choices=TOP_FORMATS,
         panel=OUTPUTS, record=False),
-    Opt("snapshot_every", int, 0, "Write the particles (snapshots/frame_NNNNN.ply) and the resumable state "
-        "(state.npz) every this many frames; 0: never.", minimum=0, panel=OUTPUTS, record=False),
+    Opt("snapshot_every", int, 0, "Write the particles (snapshots/frame_NNNNN.ply) every this many frames, "
+        "and keep the run's final state (state.npz; also when a --resume finishes it), so that --resume "
+        "with more --frames extends it; 0: never.", minimum=0, panel=OUTPUTS, record=False),
     Opt("mesh", Path, None, "Also write the closed surface mesh of the final particles, coloured by layer: "
         "OUT.ply (binary) or OUT.obj (with vertex colours); needs scikit-image: pip install "
         "'unerode-cli[mesh]'.", role="output", panel=OUTPUTS, record=False),
     Opt("mesh_smoothing", int, 5, "Taubin smoothing iterations of --mesh (they keep the volume; 0: the raw "
         "marching cubes).", minimum=0, panel=OUTPUTS, record=False),
-    Opt("resume", bool, False, "Continue OUT_DIR's run from its state.npz up to --frames (same scene and "
-        "options).", kind="flag", panel=OUTPUTS, record=False),
+    dataclasses.replace(CHECKPOINT_EVERY, help="Write the run's state (OUT_DIR/state.npz, the checkpoint) "
+                        "every this many frames."),
+    Opt("resume", bool, False, "Continue OUT_DIR's run from its state.npz (left by a stopped run, or by "
+        "one with --snapshot-every) up to --frames (same scene and options).", kind="flag",
+        panel=CHECKPOINT_PANEL, record=False),
+    dataclasses.replace(MAX_STEPS, help="Stop after this many frames of this invocation (state.npz "
+                        "checkpointed, the outputs of the frames done written; continue with --resume)."),
     dataclasses.replace(BAND, help="Band of a multi-band DEM (1-based).", panel=RUN),
     dataclasses.replace(CHANNEL, help="EXR channel of the DEM (default: Y).", panel=RUN),
     OVERWRITE,

@@ -1,10 +1,12 @@
 """The plan of a `sandstone` job: options checked, OUT_DIR's files cleared, the scene or DEM
-read, the simulation's parameters built, the provenance recorded and, with ``--resume``, the
-state of the run it continues read and matched; no particle is sampled here."""
+read, the simulation's parameters built, the provenance recorded, the run's checkpoint
+(``OUT_DIR/state.npz``) named and, with ``--resume``, matched to this run; no particle is
+sampled here."""
 
 from __future__ import annotations
 
 import math
+import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -12,12 +14,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from unerode_cli.errors import InputError
-from unerode_cli.io.checkpoints import read_checkpoint
-from unerode_cli.io.json_files import to_json
 from unerode_cli.io.mesh_files import mesh_format
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.jobs.sandstone.options import ABLATIONS, COLOR_BY, TOP_FORMATS
 from unerode_cli.jobs.sandstone.source import Source
+from unerode_cli.run.fingerprint import run_fingerprint
+from unerode_cli.run.stepping import Checkpoints
 from unerode_cli.sandstone.deflation import DeflationParams
 from unerode_cli.sandstone.deposition import DepositionParams
 from unerode_cli.sandstone.fluvial import FluvialParams
@@ -37,14 +39,15 @@ SNAPSHOTS = "snapshots"
 @dataclass
 class PreparedSandstone:
     """A checked job: the source, the simulation's parameters, OUT_DIR's files (``paths``: role →
-    path, all cleared on the output plan), the provenance and the state a ``--resume`` continues."""
+    path, all cleared on the output plan), the provenance and the run's checkpoints (in
+    ``state.npz``; with ``--resume``, one of this run)."""
 
     job: SandstoneJob
     source: Source
     params: SimulationParams
     paths: dict[str, Path]
     provenance: dict[str, Any]
-    resume_state: dict[str, np.ndarray] | None = None
+    checkpoints: Checkpoints
 
 
 def water_sources(job: SandstoneJob) -> tuple[tuple[float, float, float, float], ...]:
@@ -58,6 +61,8 @@ def check_options(job: SandstoneJob) -> None:
                                ("--threads", job.threads, 1), ("--substeps", job.substeps, 1),
                                ("--settle-substeps", job.settle_substeps, 1),
                                ("--snapshot-every", job.snapshot_every, 0),
+                               ("--checkpoint-every", job.checkpoint_every, 1),
+                               ("--max-steps", job.max_steps, 1),
                                ("--mesh-smoothing", job.mesh_smoothing, 0)):
         if value is not None and value < low:
             raise InputError(f"{option} must be at least {low}, got {value}.")
@@ -168,24 +173,33 @@ def provenance(job: SandstoneJob, source: Source, params: SimulationParams) -> d
     return record
 
 
-def fingerprint(provenance: dict[str, Any]) -> str:
-    """What a resumed run must share with the run it continues (everything but the frame count)."""
-    return to_json({k: v for k, v in provenance.items() if k != "frames"})
+def checkpoints(job: SandstoneJob, paths: dict[str, Path], scene_file: Path | None,
+                provenance: dict[str, Any]) -> Checkpoints:
+    """The run's checkpoints: ``state.npz`` in OUT_DIR, every ``--checkpoint-every`` frames, named
+    by the fingerprint of everything but the frame count (so that --resume may ask for more
+    frames) and of the scene or DEM file's contents."""
+    fields = {k: v for k, v in provenance.items() if k != "frames"}
+    return Checkpoints(paths["state"], job.checkpoint_every, job.resume,
+                       run_fingerprint(fields, [scene_file]))
 
 
-def resume_state(job: SandstoneJob, paths: dict[str, Path],
-                 provenance: dict[str, Any]) -> dict[str, np.ndarray]:
-    """The state of OUT_DIR's run (``state.npz``), refused when it is missing, was written with
-    other parameters or another seed, or has done ``--frames`` already."""
-    state_path = paths["state"]
-    if not state_path.is_file():
-        raise InputError(f"--resume needs {state_path}, written by a run with --snapshot-every; "
+def check_resume(job: SandstoneJob, checkpoints: Checkpoints) -> None:
+    """Refuse a ``--resume`` whose ``state.npz`` is missing, unreadable, of a run with other
+    parameters or another seed, or has done ``--frames`` already. Only the checkpoint's
+    fingerprint and frame count are read (its particles are read when the run resumes)."""
+    path = checkpoints.path
+    assert path is not None
+    if not path.is_file():
+        raise InputError(f"--resume needs {path}, left by a stopped run or one with --snapshot-every; "
                          "there is none.")
-    state = read_checkpoint(state_path)
-    if str(state["fingerprint"]) != fingerprint(provenance) or int(state["seed"]) != job.seed:
+    try:
+        with np.load(path, allow_pickle=False) as saved:
+            fingerprint, done = str(saved["fingerprint"]), int(saved["step"])
+    except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as exc:
+        raise InputError(f"the state {path} cannot be read ({exc}); start afresh with --overwrite.") from None
+    if fingerprint != checkpoints.fingerprint:
         raise InputError(f"the run in {job.out_dir} had other parameters or another seed; resume it with "
                          "the same scene and options (only --frames may change).")
-    if int(state["frame"]) >= job.frames:
-        raise InputError(f"the run in {job.out_dir} has already done {int(state['frame'])} frames; ask for "
-                         "more with --frames.")
-    return state
+    if done >= job.frames:
+        raise InputError(f"the run in {job.out_dir} has already done {done} frames; ask for more with "
+                         "--frames.")

@@ -1,14 +1,17 @@
-"""The time steps of a glacier run (``glacier.coupled.run`` with the processes of ice-free
-ground, ``glacier.cycle``): progress, divergence guards, ice snapshots, timeline rows,
-checkpoints and resume.
+"""The time steps of a glacier run (``glacier.coupled.Stepping`` with the processes of ice-free
+ground, ``glacier.cycle``) through the shared stepping loop (``run.stepping.step_through``):
+progress, divergence guards, ice snapshots, timeline rows, checkpoints and resume.
 
-Checkpoints: every ``--checkpoint-every`` steps the run's whole state (bed, ice, the last
-velocities, the step cap, the totals, the timeline so far and the state of the ice-free
-processes: ``_saved``) goes to ``.OUT.checkpoint.npz`` beside OUT (``io.checkpoints``); ``--resume``
-continues from it with the steps an uninterrupted run would take. ``--max-steps``, or a
-cancelled progress, ends an invocation after a step: the loop returns normally with the run so
-far, checkpointed. A finished run's outputs remove its checkpoint (``outputs.write_glacier``); a
-run that diverges removes it with everything else it wrote.
+The number of steps is not known in advance (the cold-start ramp and the rejected steps of
+``coupled.Stepping``): the loop runs until the step that reaches the last time, and its progress
+counts simulated years. Checkpoints: every ``--checkpoint-every`` steps the run's whole state
+(``GlacierSteps.state``: bed, ice, the last velocities, the step cap, the totals, the timeline
+so far and the state of the ice-free processes) goes to ``.OUT.checkpoint.npz`` beside OUT
+(``io.checkpoints.write_state_checkpoint``); ``--resume`` continues from it with the steps an
+uninterrupted run would take. ``--max-steps``, or a cancelled progress, ends an invocation after
+a step: the loop returns normally with the run so far, checkpointed. A finished run's outputs
+remove its checkpoint (``outputs.write_glacier``); a run that diverges removes it with
+everything else it wrote.
 
 Divergence (``DivergenceGuard``, as erode and climate-run): after every step the bed, and the
 ice surface b + H, must be finite and within 5 × the DEM's relief (+ 100 m) of the starting DEM
@@ -29,13 +32,14 @@ import numpy as np
 from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.glacier import coupled, cycle, lakes
 from unerode_cli.hydro.outlets import outlet_mask
-from unerode_cli.io.checkpoints import checkpoint_path, read_state_checkpoint, write_state_checkpoint
+from unerode_cli.io.checkpoints import checkpoint_path
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
 from unerode_cli.run.glacial.outputs import save_layer, timeline_row
 from unerode_cli.run.glacial.plan import PreparedGlacierRun, snapshot_base
 from unerode_cli.run.job import Progress
 from unerode_cli.run.outputs import snapshot_path
+from unerode_cli.run.stepping import Checkpoints, StepInfo, step_through
 
 #: Ice thicker than this (m) under the multi-scale transport at a CFL number above
 #: ``THICK_ICE_CFL`` gets a note: one-cell grooves in the surface of ice this thick grew into a
@@ -73,7 +77,6 @@ def run_glacier(prepared: PreparedGlacierRun, progress: Progress) -> GlacierOutc
     run, terrain = prepared.run, prepared.terrain
     grid = terrain.grid
     start = time.perf_counter()
-    progress.start(float(prepared.times[-1]), prepared.command, unit="years")
     state = coupled.GlacierState(coupled.fill_outside(terrain.elevation, grid.valid), prepared.thickness)
     outlets = outlet_mask(grid)  # the map's edges and the borders of nodata
     ice_free = _ice_free_erosion(prepared, outlets)
@@ -84,6 +87,7 @@ def run_glacier(prepared: PreparedGlacierRun, progress: Progress) -> GlacierOutc
         progress.note(note)
     if never and ice_free is None:
         outcome = _without_ice(prepared, state, note)
+        progress.start(float(prepared.times[-1]), prepared.command, unit="years")
         progress.advance("no ice", done=outcome.result.state.time)
     else:
         outcome = _steps(prepared, state, ice_free, outlets, note, progress, start)
@@ -112,51 +116,17 @@ def _without_ice(prepared: PreparedGlacierRun, state: coupled.GlacierState, note
 
 def _steps(prepared: PreparedGlacierRun, state: coupled.GlacierState, ice_free: cycle.IceFreeErosion | None,
            outlets: np.ndarray, note: str, progress: Progress, start: float) -> GlacierOutcome:
-    """The loop of ``coupled.run``, from the beginning or the checkpoint; ``check`` after each step
-    guards, reports, writes snapshots, timeline rows and checkpoints, and ends the loop (returns
-    True) at ``--max-steps`` or when the progress is cancelled."""
-    run, terrain = prepared.run, prepared.terrain
-    grid = terrain.grid
-    resumed = _resume(prepared, ice_free, progress)
-    timeline: list[dict[str, Any]] = [] if resumed is None else resumed.timeline
-    snapshots: list[Path] = [] if resumed is None else resumed.snapshots
-    earlier = 0.0 if resumed is None else resumed.wall
-    if resumed is None:
-        result = coupled.RunResult(state, [state.time], [coupled.ice_volume(state.thickness, grid)])
-    else:
-        result, state = resumed.result, resumed.result.state
-    stop_at = None if run.max_steps is None else result.steps + run.max_steps
-    end_time = float(prepared.times[-1])
-    bed_guard = DivergenceGuard(terrain.elevation, hint=DIVERGENCE_HINT)
-    surface_guard = DivergenceGuard(terrain.elevation + prepared.thickness,
-                                    uplift_rate=max_rate(prepared.params.p_max), hint=DIVERGENCE_HINT)
-    thick_note = _ThickIceNote(prepared.params, progress)
-    stopped = False
-
-    def check(new: coupled.GlacierState, report: coupled.StepReport, k: int) -> bool:
-        nonlocal stopped
-        where = f"in step {k} (t = {new.time:g} y)"
-        bed_guard.check(new.bed, new.time, where)
-        surface_guard.check(new.bed + new.thickness, new.time, where)
-        thick_note.check(new)
-        if run.timeline is not None:
-            timeline.append(timeline_row(prepared, new, report, ice_free,
-                                         outlets if ice_free is None else ice_free.base_level))
-        progress.advance(_step_info(report), done=new.time)
-        if any(math.isclose(new.time, t, rel_tol=1e-12) for t in prepared.snapshot_times):
-            path = snapshot_path(snapshot_base(run), len(snapshots) + 1)
-            save_layer(prepared, new.thickness, path, "m", {"time_years": new.time}, new.time)
-            snapshots.append(path)
-        stopped = (k == stop_at or progress.cancelled()) and new.time < end_time
-        if k % run.checkpoint_every == 0 or stopped:
-            saved = _saved(_Resumed(result, timeline, snapshots, earlier + time.perf_counter() - start),
-                           ice_free)
-            write_state_checkpoint(checkpoint_path(run.output), prepared.fingerprint, k, saved)
-        return stopped
-
-    times = prepared.times[prepared.times > state.time + 1e-9 * max(run.dt, 1.0)]
+    """The steps of ``coupled.Stepping`` through the shared stepping loop (``run.stepping``:
+    resume, progress in simulated years, --max-steps, cancel, checkpoints), from the beginning
+    or the checkpoint; ``GlacierSteps.step`` guards, writes snapshots and timeline rows."""
+    run = prepared.run
+    assert run.output is not None
+    steps = GlacierSteps(prepared, state, ice_free, outlets, progress, start)
+    checkpoints = Checkpoints(checkpoint_path(run.output), run.checkpoint_every, run.resume,
+                              prepared.fingerprint)
     try:
-        coupled.run(state, grid, prepared.params, prepared.ela, times, None, check, ice_free, result)
+        stepped = step_through(steps, None, progress, prepared.command, checkpoints, run.max_steps,
+                               years=float(prepared.times[-1]))
     except coupled.UnstableStep as exc:
         raise InputError(
             f"--dt {exc.dt:g} y is above the stable explicit ice-transport step {exc.stable:.3g} y "
@@ -165,77 +135,90 @@ def _steps(prepared: PreparedGlacierRun, state: coupled.GlacierState, ice_free: 
         raise RunFailure(f"{exc}; lower --dt or --transport-cfl, or use --transport explicit") from None
     except coupled.TooManySubsteps as exc:
         raise RunFailure(f"{exc}; use the multi-scale transport (the default) or a shorter --dt") from None
-    return GlacierOutcome(result, timeline, snapshots, ice_free, note, earlier, stopped)
+    return GlacierOutcome(steps.stepping.result, steps.timeline, steps.snapshots, ice_free, note,
+                          steps.earlier, not stepped.finished)
 
 
-@dataclass
-class _Resumed:
-    """A run so far: its result (state, volume series, totals), the timeline rows and snapshots
-    written and the wall-clock seconds spent."""
+class GlacierSteps:
+    """A glacier run as the shared stepping loop drives it (``run.stepping.Stepper``): one step
+    is one accepted step of ``coupled.Stepping`` (with the ice-free processes after it), checked
+    by the divergence guards, with its timeline row and, at a snapshot time, its ice snapshot.
+    Its state (``state``/``restore``) is the whole run so far: bed, ice, last velocities, the
+    volume series and totals (the step cap included), the timeline, the snapshots, the wall time
+    (``earlier``: seconds of the invocations before this one) and the ice-free processes'."""
 
-    result: coupled.RunResult
-    timeline: list[dict[str, Any]]
-    snapshots: list[Path]
-    wall: float
+    def __init__(self, prepared: PreparedGlacierRun, state: coupled.GlacierState,
+                 ice_free: cycle.IceFreeErosion | None, outlets: np.ndarray, progress: Progress,
+                 start: float) -> None:
+        terrain = prepared.terrain
+        self.prepared, self.ice_free, self.start = prepared, ice_free, start
+        self.base_level = outlets if ice_free is None else ice_free.base_level
+        self.stepping = self._stepping(state)
+        self.timeline: list[dict[str, Any]] = []
+        self.snapshots: list[Path] = []
+        self.earlier = 0.0
+        self.bed_guard = DivergenceGuard(terrain.elevation, hint=DIVERGENCE_HINT)
+        self.surface_guard = DivergenceGuard(terrain.elevation + prepared.thickness,
+                                             uplift_rate=max_rate(prepared.params.p_max),
+                                             hint=DIVERGENCE_HINT)
+        self.thick_note = _ThickIceNote(prepared.params, progress)
+
+    def _stepping(self, state: coupled.GlacierState,
+                  result: coupled.RunResult | None = None) -> coupled.Stepping:
+        prepared = self.prepared
+        return coupled.Stepping(state, prepared.terrain.grid, prepared.params, prepared.ela, prepared.times,
+                                self.ice_free, result)
+
+    def step(self, k: int) -> StepInfo:
+        prepared, run = self.prepared, self.prepared.run
+        if self.stepping.finished:  # resumed from a checkpoint of the last step
+            return StepInfo(done=self.stepping.state.time, last=True)
+        report = self.stepping.advance()
+        new = self.stepping.state
+        where = f"in step {k + 1} (t = {new.time:g} y)"
+        self.bed_guard.check(new.bed, new.time, where)
+        self.surface_guard.check(new.bed + new.thickness, new.time, where)
+        self.thick_note.check(new)
+        if run.timeline is not None:
+            self.timeline.append(timeline_row(prepared, new, report, self.ice_free, self.base_level))
+        if any(math.isclose(new.time, t, rel_tol=1e-12) for t in prepared.snapshot_times):
+            path = snapshot_path(snapshot_base(run), len(self.snapshots) + 1)
+            save_layer(prepared, new.thickness, path, "m", {"time_years": new.time}, new.time)
+            self.snapshots.append(path)
+        return StepInfo(_step_info(report), done=new.time, last=self.stepping.finished)
+
+    def state(self) -> dict[str, Any]:
+        """The state a checkpoint keeps (arrays, and numbers, text, lists and mappings of them):
+        the run so far (``coupled.RunResult.saved``), the timeline, the snapshots, the wall time
+        and the ice-free processes' (``saved()``: its arrays as ``free_NAME``)."""
+        saved: dict[str, Any] = {
+            **self.stepping.result.saved(), "timeline": self.timeline,
+            "snapshots": [str(p) for p in self.snapshots],
+            "wall": self.earlier + time.perf_counter() - self.start, "ice_free": None}
+        if self.ice_free is not None:
+            free = self.ice_free.saved()
+            saved["ice_free"] = {name: value for name, value in free.items() if name not in _ICE_FREE_ARRAYS}
+            saved.update({f"free_{name}": np.asarray(free[name]) for name in _ICE_FREE_ARRAYS})
+        return saved
+
+    def restore(self, saved: dict[str, Any]) -> None:
+        """Take back a checkpoint's state; the ice-free processes too. InputError when the
+        checkpoint's processes of ice-free ground are not this run's."""
+        free = saved["ice_free"]
+        if (free is None) != (self.ice_free is None):
+            raise InputError(f"the checkpoint {checkpoint_path(self.prepared.run.output)} does not match "
+                             "this run's processes of ice-free ground.")
+        if self.ice_free is not None:
+            self.ice_free.restore({**free, **{name: saved[f"free_{name}"] for name in _ICE_FREE_ARRAYS}})
+        result = coupled.RunResult.restored(saved)
+        self.stepping = self._stepping(result.state, result)
+        self.timeline = list(saved["timeline"])
+        self.snapshots = [Path(p) for p in saved["snapshots"]]
+        self.earlier = float(saved["wall"])
 
 
-#: The totals of a ``coupled.RunResult`` a checkpoint keeps (besides ``seconds``).
-_RESULT_TOTALS = ("steps", "substeps", "resolves", "evaluations", "unconverged", "max_residual", "eroded",
-                  "retries", "cap")
 #: The arrays of ``IceFreeErosion.saved()``, kept as ``free_NAME``.
 _ICE_FREE_ARRAYS = ("base_level", "fixed", "routed")
-
-
-def _saved(run: _Resumed, ice_free: cycle.IceFreeErosion | None) -> dict[str, Any]:
-    """The state a checkpoint keeps (arrays, and numbers, text, lists and mappings of them):
-    bed, ice and last velocities, the volume series and totals (the step cap included), the
-    timeline, the snapshots, the wall time and the ice-free processes' ``saved()`` state."""
-    result = run.result
-    state = result.state
-    lattice = state.lattice if state.lattice is not None else (np.zeros(0), np.zeros(0))
-    saved: dict[str, Any] = {
-        "bed": state.bed, "thickness": state.thickness, "time": state.time, "lattice_u": lattice[0],
-        "lattice_v": lattice[1], "series_times": list(result.times), "series_volumes": list(result.volumes),
-        "totals": {name: getattr(result, name) for name in _RESULT_TOTALS}, "seconds": dict(result.seconds),
-        "timeline": run.timeline, "snapshots": [str(p) for p in run.snapshots], "wall": run.wall,
-        "ice_free": None}
-    if ice_free is not None:
-        free = ice_free.saved()
-        saved["ice_free"] = {name: value for name, value in free.items() if name not in _ICE_FREE_ARRAYS}
-        saved.update({f"free_{name}": np.asarray(free[name]) for name in _ICE_FREE_ARRAYS})
-    return saved
-
-
-def _resume(prepared: PreparedGlacierRun, ice_free: cycle.IceFreeErosion | None,
-            progress: Progress) -> _Resumed | None:
-    """The run to continue with --resume (None: start from the beginning); the ice-free
-    processes are restored to their state at the checkpoint."""
-    run = prepared.run
-    assert run.output is not None
-    path = checkpoint_path(run.output)
-    if not run.resume:
-        return None
-    if not path.exists():
-        progress.note(f"note: no checkpoint {path.name} to resume from; starting from the beginning.")
-        return None
-    fingerprint, done, saved = read_state_checkpoint(path)
-    if fingerprint != prepared.fingerprint:
-        raise InputError(f"the checkpoint {path} belongs to a run with other inputs or options; run "
-                         "without --resume (or with the same options).")
-    free = saved["ice_free"]
-    if (free is None) != (ice_free is None):
-        raise InputError(f"the checkpoint {path} does not match this run's processes of ice-free ground.")
-    if ice_free is not None:
-        ice_free.restore({**free, **{name: saved[f"free_{name}"] for name in _ICE_FREE_ARRAYS}})
-    lattice = (saved["lattice_u"], saved["lattice_v"]) if saved["lattice_u"].size else None
-    state = coupled.GlacierState(saved["bed"], saved["thickness"], float(saved["time"]), lattice)
-    result = coupled.RunResult(state, list(map(float, saved["series_times"])),
-                               list(map(float, saved["series_volumes"])),
-                               seconds={**dict.fromkeys(coupled.WALL_TIME_PARTS, 0.0), **saved["seconds"]},
-                               **saved["totals"])
-    progress.note(f"note: resuming after step {done} (t = {state.time:g} y of {prepared.times[-1]:g}).")
-    return _Resumed(result, list(saved["timeline"]), [Path(p) for p in saved["snapshots"]],
-                    float(saved["wall"]))
 
 
 class _ThickIceNote:
