@@ -65,3 +65,14 @@ def read_state_checkpoint(path: Path) -> tuple[str, int, dict[str, object]]:
         if key.startswith("array."):
             state[key[len("array."):]] = np.array(value)
     return fingerprint, step, state
+
+
+def read_checkpoint_header(path: Path) -> tuple[str, int]:
+    """(fingerprint, step) of a state checkpoint, without its arrays; InputError when unreadable."""
+    import zipfile
+
+    try:
+        with np.load(path, allow_pickle=False) as saved:
+            return str(saved["fingerprint"]), int(saved["step"])
+    except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as exc:
+        raise InputError(f"the state {path} cannot be read ({exc}); start afresh with --overwrite.") from None

@@ -6,14 +6,12 @@ sampled here."""
 from __future__ import annotations
 
 import math
-import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from unerode_cli.errors import InputError
+from unerode_cli.io.checkpoints import read_checkpoint_header
 from unerode_cli.io.mesh_files import mesh_format
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.jobs.sandstone.options import ABLATIONS, COLOR_BY, TOP_FORMATS
@@ -192,11 +190,7 @@ def check_resume(job: SandstoneJob, checkpoints: Checkpoints) -> None:
     if not path.is_file():
         raise InputError(f"--resume needs {path}, left by a stopped run or one with --snapshot-every; "
                          "there is none.")
-    try:
-        with np.load(path, allow_pickle=False) as saved:
-            fingerprint, done = str(saved["fingerprint"]), int(saved["step"])
-    except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as exc:
-        raise InputError(f"the state {path} cannot be read ({exc}); start afresh with --overwrite.") from None
+    fingerprint, done = read_checkpoint_header(path)
     if fingerprint != checkpoints.fingerprint:
         raise InputError(f"the run in {job.out_dir} had other parameters or another seed; resume it with "
                          "the same scene and options (only --frames may change).")
