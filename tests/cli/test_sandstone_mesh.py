@@ -111,7 +111,7 @@ def test_an_existing_mesh_or_a_missing_folder_is_refused(tmp_path: Path) -> None
     _assert_refused(result, out, "--overwrite")
     assert existing.read_bytes() == b"keep"
     result = run_cli("sandstone", "arch", out, "--mesh", tmp_path / "no" / "rock.ply", "--frames", "1")
-    _assert_refused(result, out, "the folder of --mesh")
+    _assert_refused(result, out, "of output rock.ply does not exist")
 
 
 def test_the_command_line_default_smoothing_is_the_library_default() -> None:

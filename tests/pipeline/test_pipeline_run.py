@@ -180,17 +180,21 @@ def test_an_output_the_pipeline_did_not_write_is_never_overwritten(tmp_path: Pat
     assert result.returncode == 2
     assert result.stderr.strip() == (
         "error: step 'picture' (outputs): eroded.png already exists and was not written by this "
-        "pipeline; delete it or set options.overwrite: true.")
+        "pipeline, and a spec replaces only files it wrote, whatever its overwrite says; delete it "
+        "or move it away first.")
     assert (tmp_path / "eroded.png").read_bytes() == b"precious"
     assert not (tmp_path / "terrain.tif").exists()        # refused before the first step
     assert not (tmp_path / ".spec.state.json").exists()
 
+    # overwrite: true in the spec does not widen this (issue 45: a spec replaces only its own files)
     make_spec(tmp_path, SPEC.replace("args: [\"${steps.eroded.output}\", eroded.png]",
                                      "args: [\"${steps.eroded.output}\", eroded.png]\n"
                                      "    options: {overwrite: true}"))
     result = run_cli("pipeline", "run", spec)
-    assert result.returncode == 0, result.stderr
-    assert (tmp_path / "eroded.png").read_bytes()[:4] == b"\x89PNG"
+    assert result.returncode == 2
+    assert "a spec replaces only files it wrote" in result.stderr
+    assert (tmp_path / "eroded.png").read_bytes() == b"precious"
+    assert not (tmp_path / "terrain.tif").exists()
 
 
 def test_a_damaged_state_file_is_refused(tmp_path: Path) -> None:

@@ -130,7 +130,9 @@ def bed_profile(elevation: np.ndarray, path: RiverPath, dx: float, dy: float,
     ny, nx = elevation.shape
     rows = np.clip(np.rint(path.rows).astype(np.int64), 0, ny - 1)
     cols = np.clip(np.rint(path.cols).astype(np.int64), 0, nx - 1)
-    reach_r, reach_c = int(np.ceil(radius / dy)), int(np.ceil(radius / dx))
+    # Offsets beyond the grid's own extent reach no cell: the search stops at the grid's size.
+    reach_r = int(min(np.ceil(radius / dy), ny - 1)) if np.isfinite(radius) else ny - 1
+    reach_c = int(min(np.ceil(radius / dx), nx - 1)) if np.isfinite(radius) else nx - 1
     bed = elevation[rows, cols].astype(np.float64)
     for dr in range(-reach_r, reach_r + 1):
         for dc in range(-reach_c, reach_c + 1):

@@ -71,6 +71,7 @@ def parameter(opt: Opt) -> inspect.Parameter:
             flags = [f"{flags[0]}/{opt.off_flag}", *flags[1:]]
         if opt.kind == "count":
             info["count"] = True
+            info.setdefault("metavar", "")               # a counter (-v, -vv): no value to show
         if opt.panel:
             info["rich_help_panel"] = opt.panel
         marker = typer.Option(*flags, **info,

@@ -1,30 +1,38 @@
 """Turn exceptions into one sentence on stderr and an exit code (DESIGN §5), and say which
-files a failed or interrupted command had already written."""
+files a failed or interrupted command had already written.
+
+No message names a Python exception class: an unexpected exception is said as "the run failed
+unexpectedly: MESSAGE" (its traceback with ``-v``)."""
 
 from __future__ import annotations
 
 import contextlib
 import sys
 import traceback
+import warnings
 from collections.abc import Iterator
+from typing import Any
 
 import typer
 
-from unerode_cli.errors import InputError, RunFailure
+from unerode_cli.errors import InputError, RunFailure, WriteFailure
 from unerode_cli.io.paths import OutputPlan
+from unerode_cli.run.unexpected import unexpected, without_class_names
 
 EXIT_BAD_INPUT = 2
 EXIT_RUNTIME = 1
 EXIT_INTERRUPTED = 130
 
-
 @contextlib.contextmanager
 def reported_errors(verbosity: int) -> Iterator[OutputPlan]:
     """Run a command with a new output plan active (yielded): bad input → exit 2, a run that
-    failed → exit 1 (the files it wrote are removed), anything else → exit 1; Ctrl-C → 130
-    with the list of files written before it. A traceback only with ``-v``."""
+    failed → exit 1 (the files it wrote are removed; those of a run whose output could not be
+    written are kept and listed), anything else → exit 1; Ctrl-C → 130 with the list of files
+    written before it. Each is one sentence without a Python class name; a traceback only
+    with ``-v``. Python warnings raised meanwhile are shown as ``warning: MESSAGE.``."""
     plan = OutputPlan()
-    with plan.active():
+    with plan.active(), warnings.catch_warnings():
+        warnings.showwarning = _show_warning
         try:
             yield plan
         except (typer.Exit, typer.Abort):
@@ -32,15 +40,18 @@ def reported_errors(verbosity: int) -> Iterator[OutputPlan]:
         except InputError as exc:
             _say(_joined(f"error: {exc}", _written_note(plan)), verbosity)
             raise typer.Exit(EXIT_BAD_INPUT) from None
+        except WriteFailure as exc:
+            _say(_joined(f"error: {exc}", _written_note(plan) or "; nothing was written."), verbosity)
+            raise typer.Exit(EXIT_RUNTIME) from None
         except RunFailure as exc:
             _say(_joined(f"error: {exc}", _discard_written(plan)), verbosity)
             raise typer.Exit(EXIT_RUNTIME) from None
         except KeyboardInterrupt:
-            print(_joined("interrupted", _written_note(plan) or "; no output was written."), file=sys.stderr)
+            _say(_joined("interrupted", _written_note(plan) or "; no output was written."), 0)
             raise typer.Exit(EXIT_INTERRUPTED) from None
         except Exception as exc:  # noqa: BLE001 - the last line of defence of the CLI
-            hint = "" if verbosity > 0 else " (run with -v for the traceback)"
-            _say(_joined(f"error: {type(exc).__name__}: {exc}{hint}", _written_note(plan)), verbosity)
+            hint = "" if verbosity > 0 else " (run with -v for the details)"
+            _say(_joined(f"error: {unexpected(exc)}{hint}", _written_note(plan)), verbosity)
             raise typer.Exit(EXIT_RUNTIME) from None
         finally:
             plan.remove_own_temporaries()
@@ -52,12 +63,17 @@ def _joined(message: str, note: str) -> str:
 
 
 def _written_note(plan: OutputPlan) -> str:
-    """'; it had written: a, b' naming the files already written ('' when none)."""
-    written = plan.written
+    """'; N file(s) had been written and are kept: a, b (rerun with …)' naming each file written
+    once ('' when none); the rerun hint is the job's --resume where that continues the run (it
+    left a checkpoint), else --overwrite."""
+    written = plan.written_once()
     if not written:
         return ""
-    return (f"; {len(written)} file(s) had been written and are kept: {', '.join(map(str, written))} "
-            "(rerun with --overwrite to replace them).")
+    if plan.can_resume():
+        hint = f"rerun with {plan.resume_flag} to continue where it stopped"
+    else:
+        hint = "rerun with --overwrite to replace them"
+    return f"; {len(written)} file(s) had been written and are kept: {', '.join(map(str, written))} ({hint})."
 
 
 def _discard_written(plan: OutputPlan) -> str:
@@ -68,7 +84,22 @@ def _discard_written(plan: OutputPlan) -> str:
     return f"; nothing is kept (removed {', '.join(map(str, removed))})."
 
 
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
+    """Show a Python warning as ``warning: MESSAGE.`` on stderr: its own words (first line),
+    without its class, file or line."""
+    lines = [text.strip() for text in str(message).splitlines() if text.strip()]
+    text = without_class_names(lines[0] if lines else "").rstrip(".")
+    if text:
+        print(f"warning: {text}.", file=file or sys.stderr)
+
+
 def _say(message: str, verbosity: int) -> None:
+    """Print ``message`` as one sentence (one line, a full stop at its end, no class name) on
+    stderr, after the traceback with ``-v``."""
     if verbosity > 0:
         traceback.print_exc(file=sys.stderr)
-    print(message, file=sys.stderr)
+    text = without_class_names(" ".join(message.split()))
+    if not text.endswith((".", "?", "!")):
+        text += "."
+    print(text, file=sys.stderr)

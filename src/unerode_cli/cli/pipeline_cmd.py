@@ -26,6 +26,8 @@ Examples:
 
   unerode-cli pipeline run pipelines/demo.yaml --resume --var dt=500
 
+  unerode-cli pipeline run theirs/spec.yaml --data ~/dems --var dem=~/dems/alps.tif
+
 A minimal spec (relative paths are relative to the spec's folder):
 
   version: 1
@@ -56,12 +58,14 @@ def run(
     resume: Annotated[bool, typer.Option("--resume", help="Skip the steps finished by an earlier run whose command line, inputs and outputs are unchanged.")] = False,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="Validate and print the command line of each step (run or skip) without running anything.")] = False,
     var: Annotated[list[str] | None, typer.Option("--var", help="Set a variable declared under vars: NAME=VALUE (repeatable).")] = None,
+    data: Annotated[list[Path] | None, typer.Option("--data", help="A folder whose files the steps may read, besides the workdir and the spec's folder (repeatable).")] = None,
+    allow_outside: Annotated[list[Path] | None, typer.Option("--allow-outside", help="A file or folder outside the spec's folder that you trust this spec to read and write (repeatable).")] = None,
     verbose: Verbose = 0,
     quiet: Quiet = 0,
 ) -> None:
     """Run the steps of a pipeline spec in order, each as its subcommand's job in this process.
 
-    Everything is validated before the first step runs (subcommands, options, types, variables, step references, input files). A failing step stops the run and keeps what the earlier steps wrote; `--resume` then continues from the failed step. Progress goes to stderr; the state of finished steps is kept in `.SPEC-STEM.state.json` in the workdir.
+    Everything is validated before the first step runs (subcommands, options, types, variables, step references, input files). A spec stays in its folder: its workdir lies in the spec's folder, its outputs in the workdir, and its inputs in the workdir, the spec's folder, a --data folder or the shipped folders of the unerode-cli checkout (sample_dems/, pipelines/ and ../shared/data); any other path, symbolic links resolved, is refused unless given with --allow-outside. A step replaces only files that this spec wrote, listed with their sha256 in the state file. A failing step stops the run and keeps what the earlier steps wrote; `--resume` then continues from the failed step. Progress goes to stderr; the state of finished steps is kept in `.SPEC-STEM.state.json` in the workdir.
     """
     verbosity = verbose - quiet
     with reported_errors(verbosity):
@@ -69,9 +73,10 @@ def run(
         from unerode_cli.pipeline.commands import schemas
         from unerode_cli.pipeline.pipeline_run import StepFailed, run_pipeline
         from unerode_cli.pipeline.pipeline_run import dry_run as plan_lines
-        from unerode_cli.pipeline.spec import load_spec, parse_var_overrides, resolve
+        from unerode_cli.pipeline.spec import Confinement, load_spec, parse_var_overrides, resolve
 
-        pipeline = resolve(load_spec(spec), spec, schemas(), parse_var_overrides(var or []))
+        confinement = Confinement.from_options(data, allow_outside)
+        pipeline = resolve(load_spec(spec), spec, schemas(), parse_var_overrides(var or []), confinement)
         if dry_run:
             lines = plan_lines(pipeline, resume, verbosity)
             say(f"dry run of {len(pipeline.steps)} step(s) in {pipeline.workdir}; nothing is run.", verbosity)

@@ -11,6 +11,10 @@ times on a local cluster (dask's ``allowed-failures``; a remote scheduler keeps 
 (a process-wide lock), whatever its number of threads: a task may change the process's working
 folder and standard streams. Each task runs with ``numba_threads`` numba threads, chosen so
 that workers × threads ≤ the machine's cores on a local cluster.
+
+**Nothing left behind.** A local cluster keeps its scratch space (dask's
+``dask-scratch-space`` folder, the workers' locks and spilled data) in a temporary folder of its
+own, removed when the cluster closes, also after an error or Ctrl-C.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import tempfile
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -122,14 +127,17 @@ def connect(engine: Engine, tasks: int,
             yield Cluster(client, engine.threads or 1, engine.retries)
         return
     workers, threads = engine.sizes(tasks)
-    with dask.config.set({"distributed.scheduler.allowed-failures": engine.retries}):
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=":0", silence_logs=logging.ERROR,
-                               env={name: str(threads) for name in THREAD_VARIABLES})
-    with cluster, Client(cluster) as client:
-        on_note(f"local cluster: {workers} worker(s) × {threads} numba thread(s); "
-                f"dashboard {client.dashboard_link}")
-        yield Cluster(client, threads, engine.retries)
+    with tempfile.TemporaryDirectory(prefix="unerode-dask-", ignore_cleanup_errors=True) as scratch:
+        settings = {"distributed.scheduler.allowed-failures": engine.retries, "temporary-directory": scratch}
+        with dask.config.set(settings):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address=":0", silence_logs=logging.ERROR,
+                                   local_directory=scratch,
+                                   env={name: str(threads) for name in THREAD_VARIABLES})
+            with cluster, Client(cluster) as client:
+                on_note(f"local cluster: {workers} worker(s) × {threads} numba thread(s); "
+                        f"dashboard {client.dashboard_link}")
+                yield Cluster(client, threads, engine.retries)
 
 
 def run_tasks(tasks: Sequence[Task], run: Callable[[Task], Any], engine: Engine,

@@ -14,7 +14,8 @@ every stratum is hit exactly once: sample j of parameter i lies in stratum π_i(
 permutation, at a uniform random place inside it; the value is the distribution's quantile
 there. The N samples are crossed with every combination of the lists (the same N samples for
 each, so that e.g. two sea-level curves are compared on the same draws of the rates); with
-lists only, the members are the grid. The same seed gives the same members.
+lists only, the members are the grid. The same seed gives the same members. A sweep of more
+than :data:`MAX_MEMBERS` members is refused before any member (or sample) is made.
 """
 
 from __future__ import annotations
@@ -29,6 +30,9 @@ import numpy as np
 Value = str | int | float | bool
 Kind = Literal["uniform", "log-uniform", "normal", "choice"]
 DISTRIBUTIONS: tuple[Kind, ...] = ("uniform", "log-uniform", "normal", "choice")
+#: The most members a sweep may have: each is a folder of outputs and a task, and their
+#: parameters are held in memory and in ensemble.json.
+MAX_MEMBERS = 100_000
 
 
 @dataclass(frozen=True)
@@ -127,6 +131,10 @@ class Sweep:
     def grid_size(self) -> int:
         return math.prod(len(p.values) for p in self.listed)
 
+    def count(self, samples: int | None) -> int:
+        """How many members the sweep has with ``samples`` Latin hypercube samples (exact)."""
+        return self.grid_size() * (samples or 1)
+
     def members(self, samples: int | None, seed: int) -> list[dict[str, Value]]:
         """Every member's values (key → value, keys in sweep order): each combination of the
         lists crossed with ``samples`` Latin hypercube draws of the distributions.
@@ -142,6 +150,10 @@ class Sweep:
                              "--members applies to sampled parameters")
         if samples is not None and samples < 1:
             raise ValueError(f"the number of samples must be at least 1, got {samples}")
+        if self.count(samples) > MAX_MEMBERS:
+            raise ValueError(f"the sweep has {self.count(samples):,} members ({self.grid_size():,} "
+                             f"combinations of the lists × {samples or 1:,} samples), more than the limit of "
+                             f"{MAX_MEMBERS:,}; sweep fewer values or give fewer --members")
         draws = latin_hypercube(samples or 1, len(self.sampled), seed)
         sampled = [p.quantile(draws[:, i]) for i, p in enumerate(self.sampled)]
         members = []

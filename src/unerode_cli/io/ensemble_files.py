@@ -42,7 +42,7 @@ def member_folder(out_dir: Path, index: int) -> Path:
 
 def write_record(path: Path, payload: Mapping[str, Any]) -> None:
     """Write a JSON record of the ensemble (replacing the one there), atomically."""
-    check_output(path, overwrite=True)
+    check_output(path, overwrite=True, again=True)
     write_json(path, dict(payload))
 
 
@@ -61,14 +61,14 @@ def read_record(path: Path) -> dict[str, Any] | None:
 
 def write_text(path: Path, text: str) -> None:
     """Write UTF-8 text (a member's log), atomically, replacing the file there."""
-    check_output(path, overwrite=True)
+    check_output(path, overwrite=True, again=True)
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
 
 
 def write_rows(path: Path, columns: list[str], rows: Iterable[Mapping[str, Any]]) -> None:
     """Write a CSV table of the ensemble (members.csv, failures.csv), replacing the one there."""
-    check_output(path, overwrite=True)
+    check_output(path, overwrite=True, again=True)
     write_table(path, columns, rows)
 
 

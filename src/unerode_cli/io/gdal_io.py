@@ -10,6 +10,7 @@ import os
 import re
 import sys
 import tempfile
+import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from logging.handlers import BufferingHandler
@@ -22,8 +23,9 @@ from affine import Affine
 from pyproj import CRS
 from rasterio._err import CPLE_BaseError  # what GDAL's copy raises (not re-exported publicly)
 from rasterio.crs import CRS as RioCRS
-from rasterio.errors import RasterioError, RasterioIOError
+from rasterio.errors import NotGeoreferencedWarning, RasterioError, RasterioIOError
 from rasterio.io import MemoryFile
+from rasterio.windows import Window
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.cellsize import cell_size_metres
@@ -115,40 +117,130 @@ class WriteOptions:
     creation_options: dict[str, str] = field(default_factory=dict)
 
 
-def read_gdal(path: Path, band: int | None = None) -> Terrain:
-    """Read one band of a GDAL raster as a Terrain (nodata and NaN/inf cells → NaN)."""
+#: Peak bytes per cell that :func:`read_gdal` holds besides the cells as stored: the float64
+#: elevations (8), the band's mask and its "valid" copy (2), and the non-finite mask with its
+#: temporaries (3).
+READ_BYTES_PER_CELL = 13
+
+
+@dataclass(frozen=True)
+class GdalHeader:
+    """What a raster's header says, read without its cells: ``shape`` (rows, columns), the
+    bytes of one stored cell (``itemsize``), CRS (WKT, "" without), transform, nodata value of
+    the band and the kept tags."""
+
+    shape: tuple[int, int]
+    itemsize: int
+    crs_wkt: str
+    transform: Affine
+    nodata: float | None
+    tags: dict[str, str]
+    bands: int
+
+    @property
+    def read_bytes_per_cell(self) -> int:
+        """Peak bytes per cell of reading it with :func:`read_gdal`."""
+        return self.itemsize + READ_BYTES_PER_CELL
+
+
+def read_gdal_header(path: Path, band: int | None = None) -> GdalHeader:
+    """The header of one band of a GDAL raster; refuses (InputError) a raster GDAL cannot
+    read, a band it does not have and a raster without georeferencing."""
+    with _open(path) as src:
+        band = _band(src, path, band, note=False)
+        return _header(src, path, band)
+
+
+def read_gdal(path: Path, band: int | None = None,
+              window: tuple[slice, slice] | None = None) -> Terrain:
+    """Read one band of a GDAL raster as a Terrain (nodata and NaN/inf cells → NaN).
+
+    ``window`` (rows, columns: slices of cell indices, within the raster) reads those cells
+    only; the cell size stays that of the whole raster (on a geographic raster, the geodesic
+    size at its centre)."""
+    with _open(path) as src:
+        band = _band(src, path, band, note=True)
+        header = _header(src, path, band)
+        size = cell_size_metres(header.crs_wkt, header.transform, header.shape, str(path))
+        transform = header.transform
+        rio_window = None
+        if window is not None:
+            rows, cols = window
+            rio_window = Window.from_slices(rows, cols)
+            transform = src.window_transform(rio_window)
+        try:
+            data = src.read(band, window=rio_window).astype(np.float64)
+            valid = src.read_masks(band, window=rio_window) > 0
+        except RasterioIOError as exc:
+            raise _corrupt(path, exc) from None
+        except MemoryError:
+            rows, cols = (header.shape if rio_window is None else
+                          (int(rio_window.height), int(rio_window.width)))
+            need = float(rows) * cols * header.read_bytes_per_cell / 2**30
+            raise InputError(f"reading {path} ({rows:,} × {cols:,} cells) needs about {need:,.1f} GiB of "
+                             "memory, more than could be allocated; crop it to the area needed first "
+                             "(convert --crop reads only that window).") from None
+        tags = header.tags
+        if src.units and src.units[band - 1]:
+            tags["UNIT"] = src.units[band - 1]
+    non_finite = valid & ~np.isfinite(data)
+    if non_finite.any() and (valid & ~non_finite).any():  # with no valid cell left, the job says so
+        print(f"note: {int(non_finite.sum())} NaN/inf cells in {path} are treated as nodata.",
+              file=sys.stderr)
+    data[~valid | non_finite] = np.nan
+    return Terrain(data, size.dx, size.dy, header.crs_wkt, transform, header.nodata, tags)
+
+
+@contextlib.contextmanager
+def _open(path: Path) -> Iterator[rasterio.io.DatasetReader]:
+    """The raster opened with rasterio (its "not georeferenced" warning left unsaid: the
+    header check says it in a sentence); InputError when GDAL cannot open it."""
     try:
-        src = rasterio.open(path)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", NotGeoreferencedWarning)
+            src = rasterio.open(path)
     except RasterioIOError as exc:
         if "not recognized as being in a supported file format" in str(exc):
             raise InputError(f"{path} is not a raster that GDAL can read ({_first_line(exc)}).") from None
         raise _corrupt(path, exc) from None
     with src:
-        if band is None:
-            if src.count > 1:
-                print(f"note: {path} has {src.count} bands; reading band 1 (choose with --band).",
-                      file=sys.stderr)
-            band = 1
-        if not 1 <= band <= src.count:
-            raise InputError(f"{path} has {src.count} band(s); band {band} does not exist.")
-        try:
-            data = src.read(band).astype(np.float64)
-            valid = src.read_masks(band) > 0
-        except RasterioIOError as exc:
-            raise _corrupt(path, exc) from None
-        crs_wkt = src.crs.to_wkt() if src.crs else ""
-        size = cell_size_metres(crs_wkt, src.transform, data.shape, str(path))
-        tags = {k: v for k, v in src.tags().items() if kept(k)}
-        if src.units and src.units[band - 1]:
-            tags["UNIT"] = src.units[band - 1]
-        nodata = src.nodatavals[band - 1]
-        transform = src.transform
-    non_finite = valid & ~np.isfinite(data)
-    if non_finite.any():
-        print(f"note: {int(non_finite.sum())} NaN/inf cells in {path} are treated as nodata.",
-              file=sys.stderr)
-    data[~valid | non_finite] = np.nan
-    return Terrain(data, size.dx, size.dy, crs_wkt, transform, nodata, tags)
+        yield src
+
+
+def _band(src: rasterio.io.DatasetReader, path: Path, band: int | None, note: bool) -> int:
+    """The band to read: ``band``, else 1 (with a note when there are several and ``note``)."""
+    if band is None:
+        if src.count > 1 and note:
+            print(f"note: {path} has {src.count} bands; reading band 1 (choose with --band).",
+                  file=sys.stderr)
+        band = 1
+    if not 1 <= band <= src.count:
+        raise InputError(f"{path} has {src.count} band(s); band {band} does not exist.")
+    return band
+
+
+def _header(src: rasterio.io.DatasetReader, path: Path, band: int) -> GdalHeader:
+    """The header of an open raster; a raster without a geotransform (GDAL gives the identity
+    then: a PNG or JPEG, say) is refused as not georeferenced."""
+    crs_wkt = src.crs.to_wkt() if src.crs else ""
+    if src.transform == Affine.identity() and not src.gcps[0]:
+        missing = "geotransform" + ("" if crs_wkt else " and no CRS")
+        raise InputError(f"{path} is not georeferenced (it has no {missing}); give it a CRS and corner "
+                         "coordinates first, e.g. gdal_translate -a_srs EPSG:32632 -a_ullr ULX ULY LRX LRY "
+                         f"{path.name} dem.tif.")
+    tags = {k: v for k, v in src.tags().items() if kept(k)}
+    itemsize = np.dtype(src.dtypes[band - 1]).itemsize
+    return GdalHeader((src.height, src.width), itemsize, crs_wkt, src.transform, src.nodatavals[band - 1],
+                      tags, src.count)
+
+
+def write_bytes_per_cell(options: WriteOptions) -> int:
+    """Peak bytes per cell of writing a heightfield with ``options`` (GDAL or EXR): the nodata
+    masks (2), the valid elevations copied and cast to float32 to choose the nodata value
+    (8 + 4 + 2), the cells cast to the output type (8 + itemsize), and for the formats written
+    by copy the in-memory GeoTIFF (itemsize)."""
+    itemsize = np.dtype(options.dtype).itemsize
+    return 16 + 2 * itemsize
 
 
 def write_gdal(terrain: Terrain, path: Path, options: WriteOptions) -> None:

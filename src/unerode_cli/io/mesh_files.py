@@ -44,7 +44,7 @@ def write_mesh(path: Path, mesh: Mesh, overwrite: bool = False,
     """Write ``mesh`` to ``path`` (.ply or .obj) atomically; ``origin`` (m) and ``crs_wkt`` go to
     the header (the vertices are written as they are), with the ``comments`` (one line each)."""
     suffix = mesh_format(path)
-    check_output(path, overwrite)
+    check_output(path, overwrite, again=True)   # a job has cleared it in its plan already
     header = [f"{ORIGIN_COMMENT} {origin[0]!r} {origin[1]!r} {origin[2]!r}", UNITS_COMMENT,
               *([f"{CRS_COMMENT} {' '.join(crs_wkt.split())}"] if crs_wkt else []), *comments]
     with atomic_path(path) as tmp, open(tmp, "wb") as handle:

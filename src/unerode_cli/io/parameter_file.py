@@ -66,6 +66,35 @@ def read_parameter_file(path: Path, processes: Mapping[str, Sequence[ParamSpec]]
     return values
 
 
+def named_rasters(path: Path) -> list[tuple[str, Path]]:
+    """(text, resolved path) of every raster the parameter file ``path`` names: its values that
+    are text and not numbers, at the top level or in a process's group, resolved from the
+    file's folder as :func:`read_parameter_file` resolves them (symbolic links followed). The
+    names are not checked here; a file that is not a YAML mapping names none (the run that
+    reads it refuses it)."""
+    try:
+        document = read_yaml_mapping(path, "the parameter file", "a mapping of parameter names to values")
+    except InputError:
+        return []
+    values = [v for value in document.values()
+              for v in (value.values() if isinstance(value, dict) else (value,))]
+    return [(value, _raster_path(path, value)) for value in values
+            if isinstance(value, str) and not _is_number(value)]
+
+
+def _raster_path(path: Path, value: str) -> Path:
+    """A raster path of the parameter file ``path``, made absolute from the file's folder."""
+    return (path.parent / value).resolve()
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _lookup(specs: Sequence[ParamSpec]) -> dict[str, str]:
     """Every accepted spelling (name, symbol, with - or _) → parameter name."""
     names = {}
@@ -89,9 +118,6 @@ def _text(value: Any, key: Any, path: Path) -> str:
     """A number as text, or a raster path made absolute from the file's folder."""
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise InputError(f"parameter '{key}' in {path} must be a number or a raster path.")
-    if isinstance(value, str):
-        try:
-            float(value)
-        except ValueError:
-            return str((path.parent / value).resolve())
+    if isinstance(value, str) and not _is_number(value):
+        return str(_raster_path(path, value))
     return str(value)

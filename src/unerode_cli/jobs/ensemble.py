@@ -10,7 +10,8 @@ outputs of its finished members.
   the incision-rate residuals (mm/ka). Members are ranked by the terrace RMSE (else the
   incision error); ``members.csv`` lists every member, best first, with its parameters and
   scores; ``summary/best.json`` the best ones; ``summary/scatter_KEY.png`` each swept
-  parameter against the scores.
+  parameter against the scores. With ``SOURCE_DATE_EPOCH`` set (reproducible outputs) the
+  members' wall times are left empty in members.csv.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from unerode_cli.ensemble.summary import STATISTICS, cell_statistics, ranks
 from unerode_cli.io.ensemble_files import MEMBERS_TABLE, SUMMARY_FOLDER, read_record, write_record, write_rows
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.paths import atomic_path, check_output
+from unerode_cli.io.provenance import fixed_epoch
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.run.outputs import AGE_TAG, Outputs, save
@@ -136,7 +138,7 @@ def _write_members_table(job: SummaryJob, scores: dict[int, dict[str, Any]],
     rows = [{"rank": scores.get(m.index, {}).get("rank"), "member": m.index,
              "status": "finished" if m.finished else "failed", **m.parameters,
              **{k: scores.get(m.index, {}).get(k) for k in scored},
-             "wall_s": None if m.wall_s is None else round(m.wall_s, 3),
+             "wall_s": None if m.wall_s is None or fixed_epoch() is not None else round(m.wall_s, 3),
              "folder": m.folder.relative_to(job.out_dir.resolve()).as_posix()
              if m.folder.is_relative_to(job.out_dir.resolve()) else str(m.folder)}
             for m in order]

@@ -323,9 +323,11 @@ class _Batches:
     """Traces a kind's particles of an iteration batch by batch and applies their impacts to
     the working terrain, sampling the chosen paths; keeps the event buffer between batches."""
 
-    def __init__(self, work: Terrain, chosen: np.ndarray, per_iteration: int, path_stride: int) -> None:
+    def __init__(self, work: Terrain, chosen: np.ndarray, per_iteration: int, path_stride: int,
+                 between: Callable[[], None] | None = None) -> None:
         self.work, self.chosen = work, chosen
         self.per_iteration, self.path_stride = per_iteration, path_stride
+        self.between = between
         self.buffer = np.empty((0, 0, 4))
         self.paths: list[ParticlePath] = []
 
@@ -343,6 +345,8 @@ class _Batches:
                   *snap.ground_arguments(), *tracer.field_arrays, ekind, ecdf, ecells, epts,
                   float(tracer.kind.emission.spread), ev0)
         for start, stop in _batches(tracer.count, first=PILOT if iteration == 0 else BATCH):
+            if self.between is not None:
+                self.between()
             indices = np.arange(start, stop, dtype=np.int64)
             slot = np.full(indices.size, -1, np.int64)
             picked = np.isin(iteration * self.per_iteration + tracer.offset + indices, self.chosen)
@@ -424,11 +428,15 @@ class ParticleIterations:
     the size of the event buffer, and the sampled paths. There is no random state to keep: a
     particle's numbers come from its own stream keyed by (seed of its kind, iteration, particle
     index).
+
+    ``between_batches`` (no arguments) is called before each batch of particles is traced; it
+    may raise to abandon the run there (e.g. on Ctrl-C), which leaves the iteration half done:
+    the run is then only good for ``restore`` from an earlier ``state``.
     """
 
     def __init__(self, terrain: Terrain, kinds: Sequence[ParticleKind], *, iterations: int = 1, seed: int = 0,
                  sea_level: float | None = None, paths: int = 0, path_stride: int = 1,
-                 apply: str = PER_ITERATION) -> None:
+                 apply: str = PER_ITERATION, between_batches: Callable[[], None] | None = None) -> None:
         _check_run_args(iterations, seed, paths, path_stride, sea_level)
         if apply not in APPLY_MODES:
             raise ValueError(f"impacts apply {' or '.join(APPLY_MODES)}, not {apply!r}")
@@ -438,7 +446,7 @@ class ParticleIterations:
         total = iterations * per_iteration
         chosen = np.unique(np.arange(min(paths, total), dtype=np.int64) * total // max(paths, 1))
         self.work = terrain.copy()
-        self.batches = _Batches(self.work, chosen, per_iteration, path_stride)
+        self.batches = _Batches(self.work, chosen, per_iteration, path_stride, between_batches)
         #: iterations done
         self.done = 0
 

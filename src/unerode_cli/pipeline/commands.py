@@ -10,16 +10,18 @@ from __future__ import annotations
 
 import importlib
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from unerode_cli.errors import InputError, RunFailure
+from unerode_cli.errors import InputError, RunFailure, WriteFailure
 from unerode_cli.io.paths import OutputPlan
+from unerode_cli.io.provenance import recorded_relative_to
 from unerode_cli.pipeline.spec import CommandSchema, ParamSchema
 from unerode_cli.run.declare import Opt, build
 from unerode_cli.run.job import Progress, StreamProgress, Summary, execute
+from unerode_cli.run.unexpected import unexpected
 
 
 @dataclass(frozen=True)
@@ -155,32 +157,41 @@ def follow_ups(job: Any) -> list[Any]:
     return []
 
 
-def run_job(job: Any, progress: Progress | None = None, outputs: OutputPlan | None = None) -> str:
+def run_job(job: Any, progress: Progress | None = None, outputs: OutputPlan | None = None,
+            plans: Callable[[], OutputPlan] | None = None) -> str:
     """Run ``job`` (:func:`~unerode_cli.run.job.execute`), then its :func:`follow_ups`, each with
-    its own output plan; the summaries, one per line (the first keeps its exit code)."""
-    summary = execute(job, progress, outputs)
-    extra = [execute(follow, progress) for follow in follow_ups(job)]
+    its own output plan (``outputs`` for ``job``, else made by ``plans``, else a new one); the
+    summaries, one per line (the first keeps its exit code)."""
+    summary = execute(job, progress, outputs or (plans() if plans else None))
+    extra = [execute(follow, progress, plans() if plans else None) for follow in follow_ups(job)]
     if not extra:
         return summary
     return Summary("\n".join(text for text in (summary, *extra) if text), getattr(summary, "exit_code", 0))
 
 
-def run_step(command: str, values: Mapping[str, Any], workdir: Path, verbosity: int = 0) -> int:
-    """Build and run one step's job in this process; its exit code (0, 2 for bad input, 1 for a
-    failure, or the one the job's summary asks for), with the job's notes, summary and error on
-    stderr as the command line says them."""
+def run_step(command: str, values: Mapping[str, Any], workdir: Path, verbosity: int = 0,
+             plans: Callable[[], OutputPlan] | None = None) -> int:
+    """Build and run one step's job in this process, with the output plans ``plans`` makes
+    (default: new ones); its exit code (0, 2 for bad input, 1 for a failure, or the one the
+    job's summary asks for), with the job's notes, summary and error on stderr as the command
+    line says them. The history its outputs carry names the files in ``workdir`` by their
+    paths relative to it, as the spec does."""
     progress = StreamProgress(verbosity)
     try:
         job = build_job(command, values, workdir)
-        summary = run_job(job, progress)
+        with recorded_relative_to(workdir):
+            summary = run_job(job, progress, plans=plans)
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except WriteFailure as exc:
+        print(f"error: {str(exc).rstrip('.')}; the files written before it are kept.", file=sys.stderr)
+        return 1
     except RunFailure as exc:
-        print(f"error: {exc}; nothing is kept.", file=sys.stderr)
+        print(f"error: {str(exc).rstrip('.')}; nothing is kept.", file=sys.stderr)
         return 1
     except Exception as exc:  # noqa: BLE001 - a step's failure stops the pipeline, not the process
-        print(f"error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        print(f"error: {unexpected(exc)}.", file=sys.stderr)
         return 1
     if summary and verbosity >= -1:
         print(summary, file=sys.stderr)

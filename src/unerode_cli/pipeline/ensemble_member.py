@@ -26,6 +26,7 @@ from unerode_cli.io.ensemble_files import (
     write_record,
     write_text,
 )
+from unerode_cli.io.provenance import record_time
 from unerode_cli.pipeline.pipeline_run import Executor, StepFailed, run_pipeline
 from unerode_cli.pipeline.spec import ResolvedPipeline
 
@@ -84,7 +85,7 @@ def run_member(member: Member, verbosity: int = 0, executor: Executor | None = N
     write_text(member.folder / LOG_FILE, log.getvalue())
     wall = time.perf_counter() - started
     if error is None:
-        finished = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        finished = record_time()
         write_record(member.folder / DONE_FILE, {"wall_s": wall, "finished": finished})
     return Outcome(member.index, error is None, wall, step, error)
 

@@ -21,6 +21,10 @@ OPTIONS = (
         panel=SWEEP_PANEL),
     Opt("var", str, None, "Set a variable declared under vars: NAME=VALUE (repeatable).", kind="multiple",
         panel=SWEEP_PANEL),
+    Opt("data", Path, None, "A folder whose files the members' steps may read, besides the spec's folder "
+        "(repeatable).", kind="multiple", panel=SWEEP_PANEL, record=False),
+    Opt("allow_outside", Path, None, "A file or folder outside the spec's folder that you trust this spec to "
+        "read (repeatable).", kind="multiple", panel=SWEEP_PANEL, record=False),
     Opt("workers", int, None, "Worker processes of the local cluster (default: one per core, at most one "
         "per member).", minimum=1, panel=ENGINE_PANEL, record=False),
     Opt("threads_per_worker", int, None, "numba threads of each member's run (default: the cores shared "

@@ -8,7 +8,16 @@ and does not stop the others.
 member's parameters. With ``--resume`` a member with its done marker and outputs is never rerun;
 every other member starts again from an empty folder (its interrupted run is not trusted). The
 members must be those of the recorded ensemble. Without ``--resume`` an existing ensemble is
-refused unless ``--overwrite``, which reruns every member.
+refused unless ``--overwrite``, which reruns every member. Once ``ensemble.json`` is written, an
+interrupted ensemble can be resumed: Ctrl-C lists the files already written (the members'
+included, each once) and says to rerun with ``--resume``.
+
+**Confinement.** The spec's paths are confined as a pipeline's
+(:class:`~unerode_cli.pipeline.spec.Confinement`): the members read in the spec's folder, the
+``--data`` folders, the checkout's folders and ``--allow-outside`` paths, and write in their
+own folder only; a path leading elsewhere, also one that only a swept value names, refuses the
+whole ensemble before any member runs. A sweep of more than :data:`~unerode_cli.ensemble.sweep.MAX_MEMBERS`
+members is refused before any member is made.
 """
 
 from __future__ import annotations
@@ -30,6 +39,8 @@ from unerode_cli.io.ensemble_files import (
     FAILURES_FILE,
     MEMBER_FILE,
     MEMBERS_FOLDER,
+    MEMBERS_TABLE,
+    SUMMARY_FOLDER,
     fresh_folder,
     member_folder,
     read_record,
@@ -37,7 +48,7 @@ from unerode_cli.io.ensemble_files import (
     write_rows,
 )
 from unerode_cli.io.json_files import jsonable
-from unerode_cli.io.paths import OutputPlan, file_sha256
+from unerode_cli.io.paths import OutputPlan, active_plan, file_sha256
 from unerode_cli.jobs.ensemble import MemberResult, SummaryJob, summarise
 from unerode_cli.pipeline.commands import schemas
 from unerode_cli.pipeline.ensemble_member import Member, Outcome, is_done, member_record, run_member
@@ -49,7 +60,7 @@ from unerode_cli.pipeline.ensemble_spec import (
     parse_sweep,
     sweep_targets,
 )
-from unerode_cli.pipeline.spec import CommandSchema, parse_var_overrides, resolve
+from unerode_cli.pipeline.spec import CommandSchema, Confinement, OutsideError, parse_var_overrides, resolve
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress, Summary, execute
 
@@ -70,6 +81,11 @@ class EnsembleJob(Job):
         return parse_var_overrides(self.var or [])
 
     @property
+    def confinement(self) -> Confinement:
+        """Where the spec's paths may lead (``--data``, ``--allow-outside``)."""
+        return Confinement.from_options(self.data, self.allow_outside, "the member's folder")
+
+    @property
     def engine(self) -> Engine:
         return Engine(self.scheduler, self.workers, self.threads_per_worker, self.retries,
                       self.scheduler_timeout)
@@ -78,6 +94,8 @@ class EnsembleJob(Job):
         if self.resume and self.overwrite:
             raise InputError("--resume keeps the finished members and --overwrite reruns them all; give one.")
         outputs.read(self.spec)
+        outputs.resumes_from_outputs = True    # finished members are kept: Ctrl-C hints --resume
+        _check_spec_kept(self, outputs)
         return plan_ensemble(self, schemas())
 
     def run(self, planned: EnsemblePlan, progress: Progress) -> EnsembleResult:
@@ -124,7 +142,9 @@ def plan_ensemble(job: EnsembleJob, schemas: Mapping[str, CommandSchema]) -> Ens
         values = sweep.members(job.members, job.seed)
     except ValueError as exc:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
-    resolve(member_spec(spec, targets, {}, schemas), job.spec, schemas, job.variables)  # the spec as given
+    confinement = job.confinement
+    resolve(member_spec(spec, targets, {}, schemas), job.spec, schemas, job.variables,  # the spec as given
+            confinement)
     record = {"unerode_cli": __version__, "spec": str(job.spec.resolve()),
               "spec_sha256": file_sha256(job.spec), "seed": job.seed, "samples": job.members,
               "vars": job.variables, "keys": list(spec.sweep), "members": values}
@@ -134,12 +154,34 @@ def plan_ensemble(job: EnsembleJob, schemas: Mapping[str, CommandSchema]) -> Ens
         folder = member_folder(job.out_dir.resolve(), index)
         try:
             pipeline = member_pipeline(member_spec(spec, targets, parameters, schemas), job.spec, schemas,
-                                       job.variables, folder)
+                                       job.variables, folder, confinement)
             members.append(Member(index, folder, parameters, pipeline))
+        except OutsideError as exc:
+            raise InputError(f"member {index} ({_shown(parameters)}): {exc}") from None
         except InputError as exc:
             members.append(Member(index, folder, parameters, None, str(exc)))
     logs = frozenset(p.key for p in sweep.sampled if p.kind == "log-uniform")
     return EnsemblePlan(job, members, record, logs)
+
+
+def _check_spec_kept(job: EnsembleJob, outputs: OutputPlan) -> None:
+    """Refuse a spec that the ensemble would replace or delete: one of the records it writes in
+    ``OUT_DIR`` (ensemble.json, failures.csv, members.csv, also through a link) or a file of
+    its members' or summary folders, which a run starts afresh."""
+    out = job.out_dir
+    for name in (ENSEMBLE_FILE, FAILURES_FILE, MEMBERS_TABLE):
+        if outputs.is_input(out / name) is not None:
+            raise InputError(f"the spec {job.spec} is the ensemble's record {out / name}, which the run "
+                             "rewrites; copy the spec out of the ensemble folder and run that copy.")
+    spec = job.spec.resolve()
+    for name in (MEMBERS_FOLDER, SUMMARY_FOLDER):
+        if spec.is_relative_to((out / name).resolve()):
+            raise InputError(f"the spec {job.spec} lies in {out / name}, which the run starts afresh; "
+                             "copy the spec out of the ensemble folder and run that copy.")
+
+
+def _shown(parameters: Mapping[str, Any]) -> str:
+    return ", ".join(f"{key}={value}" for key, value in parameters.items())
 
 
 def _check_out_dir(job: EnsembleJob, record: dict[str, Any]) -> None:
@@ -179,32 +221,36 @@ def run_ensemble(plan: EnsemblePlan, verbosity: int = 0,
     def heard(i: int, outcome: Outcome | None, error: BaseException | None) -> None:
         member = pending[i]
         if outcome is None:
-            outcome = Outcome(member.index, False, None, None, f"{type(error).__name__}: {error}")
+            outcome = Outcome(member.index, False, None, None, _task_error(error))
         outcomes[member.index] = outcome
         state = f"finished in {outcome.wall_s:.1f} s" if outcome.finished else f"failed: {outcome.error}"
         on_note(f"member {member.folder.name} {state} ({len(outcomes)}/{len(plan.members)})")
 
-    with contextlib.ExitStack() as stack:
-        cluster = None
-        if pending:
-            try:
-                cluster = stack.enter_context(connect(job.engine, len(pending), on_note))
-            except SchedulerUnreachable as exc:
-                raise InputError(f"the scheduler {job.engine.scheduler} {exc}.") from None
-        (job.out_dir / MEMBERS_FOLDER).mkdir(parents=True, exist_ok=True)
-        write_record(job.out_dir / ENSEMBLE_FILE, plan.record)
-        for member in plan.members:
-            if member.index in done:
-                record = read_record(member.folder / DONE_FILE) or {}
-                outcomes[member.index] = Outcome(member.index, True, record.get("wall_s"))
-            elif member.pipeline is None:
-                outcomes[member.index] = _unresolved(member)
-        unresolved = len(outcomes) - len(done)
-        on_note(f"ensemble of {len(plan.members)} member(s) in {job.out_dir}: {len(pending)} to run"
-                + (f", {len(done)} finished earlier" if done else "")
-                + (f", {unresolved} that do not resolve" if unresolved else ""))
-        if cluster is not None:
-            cluster.run(pending, functools.partial(run_member, verbosity=verbosity), heard)
+    try:
+        with contextlib.ExitStack() as stack:
+            cluster = None
+            if pending:
+                try:
+                    cluster = stack.enter_context(connect(job.engine, len(pending), on_note))
+                except SchedulerUnreachable as exc:
+                    raise InputError(f"the scheduler {job.engine.scheduler} {exc}.") from None
+            (job.out_dir / MEMBERS_FOLDER).mkdir(parents=True, exist_ok=True)
+            write_record(job.out_dir / ENSEMBLE_FILE, plan.record)
+            for member in plan.members:
+                if member.index in done:
+                    record = read_record(member.folder / DONE_FILE) or {}
+                    outcomes[member.index] = Outcome(member.index, True, record.get("wall_s"))
+                elif member.pipeline is None:
+                    outcomes[member.index] = _unresolved(member)
+            unresolved = len(outcomes) - len(done)
+            on_note(f"ensemble of {len(plan.members)} member(s) in {job.out_dir}: {len(pending)} to run"
+                    + (f", {len(done)} finished earlier" if done else "")
+                    + (f", {unresolved} that do not resolve" if unresolved else ""))
+            if cluster is not None:
+                cluster.run(pending, functools.partial(run_member, verbosity=verbosity), heard)
+    except KeyboardInterrupt:
+        _note_interrupted(plan)
+        raise
     ordered = [outcomes[m.index] for m in plan.members]
     failed = [o for o in ordered if not o.finished]
     write_rows(job.out_dir / FAILURES_FILE, ["member", "folder", "step", "error"],
@@ -212,6 +258,27 @@ def run_ensemble(plan: EnsemblePlan, verbosity: int = 0,
                  "error": o.error} for o in failed])
     summary = summarise(_summary_job(plan, ordered), on_note)
     return EnsembleResult(len(failed), f"{summary}; {time.perf_counter() - started:.1f} s")
+
+
+def _task_error(error: BaseException | None) -> str:
+    """What a member's task that raised (after its retries) says in failures.csv and the log."""
+    text = str(error).strip().splitlines()[0] if error is not None and str(error).strip() else ""
+    return f"its task stopped: {text}" if text else "its task stopped (its worker died or was stopped)"
+
+
+def _note_interrupted(plan: EnsemblePlan) -> None:
+    """On Ctrl-C: the members' files join the files the interrupted command lists (each once),
+    and ``--resume`` is offered only when the ensemble can be resumed (ensemble.json written)."""
+    outputs = active_plan()
+    if not (plan.out_dir / ENSEMBLE_FILE).is_file():
+        outputs.resume_flag = ""
+        return
+    listed = {Path(p).resolve() for p in outputs.written}
+    for member in plan.members:
+        found = sorted(p for p in member.folder.rglob("*") if p.is_file() and ".part" not in p.name) \
+            if member.folder.is_dir() else []
+        outputs.written += [p for p in found if p.resolve() not in listed]
+        listed.update(p.resolve() for p in found)
 
 
 def _unresolved(member: Member) -> Outcome:

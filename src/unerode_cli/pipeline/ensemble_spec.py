@@ -24,7 +24,8 @@ of entries and the sampling are described in :mod:`unerode_cli.ensemble.sweep`.
 **Folders.** Each member runs in its own folder (``OUT_DIR/members/NNNN``), which replaces the
 spec's ``workdir`` (it may be left out). Relative paths are relative to the spec's folder for
 the files a step reads, and to the member's folder for those it writes; a step may not write
-outside its member's folder.
+outside its member's folder, nor read outside the spec's folder, the ``--data`` folders and the
+checkout's folders (:class:`~unerode_cli.pipeline.spec.Confinement`, as for a pipeline).
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ from unerode_cli.ensemble.sweep import Sweep, Value, parse_parameter
 from unerode_cli.errors import InputError
 from unerode_cli.pipeline.spec import (
     CommandSchema,
+    Confinement,
+    OutsideError,
     PipelineSpec,
     ResolvedPipeline,
     ResolvedStep,
@@ -139,10 +142,13 @@ def member_spec(spec: EnsembleSpec, targets: Mapping[str, list[Target]],
 
 
 def member_pipeline(spec: PipelineSpec, spec_path: Path, schemas: Mapping[str, CommandSchema],
-                    overrides: Mapping[str, str], folder: Path) -> ResolvedPipeline:
+                    overrides: Mapping[str, str], folder: Path,
+                    confinement: Confinement | None = None) -> ResolvedPipeline:
     """Resolve a member's pipeline to run in ``folder``: inputs read where the spec's folder
-    places them, outputs written in ``folder``. InputError as ``pipeline run`` gives it."""
-    resolved = resolve(spec, spec_path, schemas, overrides)
+    places them, outputs written in ``folder``. InputError as ``pipeline run`` gives it
+    (:class:`~unerode_cli.pipeline.spec.OutsideError` for a path out of ``confinement``)."""
+    confinement = confinement or Confinement(writes_in="the member's folder")
+    resolved = resolve(spec, spec_path, schemas, overrides, confinement)
     base = resolved.workdir
     written: dict[Path, Path] = {}
     for step in resolved.steps:
@@ -150,10 +156,12 @@ def member_pipeline(spec: PipelineSpec, spec_path: Path, schemas: Mapping[str, C
             try:
                 written[output] = folder / output.relative_to(base)
             except ValueError:
-                raise InputError(f"step '{step.name}' (outputs): {output} lies outside the member's "
-                                 "folder; members write relative paths only.") from None
+                raise OutsideError(f"step '{step.name}' (outputs): {output} lies outside the member's "
+                                   "folder; members write relative paths only.") from None
     steps = [_moved(step, base, written) for step in resolved.steps]
-    return ResolvedPipeline(resolved.spec_path, folder, steps)
+    # members write in their folder only; --allow-outside paths stay readable
+    member = dataclasses.replace(confinement, data=(*confinement.data, *confinement.allowed), allowed=())
+    return ResolvedPipeline(resolved.spec_path, folder, steps, member)
 
 
 def _moved(step: ResolvedStep, base: Path, written: Mapping[Path, Path]) -> ResolvedStep:

@@ -39,20 +39,33 @@ the workdir, where every step runs.
 outputs (the ``OUT`` of ``SUBCOMMAND IN OUT``, the only argument of ``synth OUT``), the output
 path options it is given (``--preview``, ``--change-map``), then its explicit ``outputs:``
 list. ``${steps.NAME.output}`` is the first of them, written as the spec gave it; ``NAME``
-must be an earlier step. ``overwrite: true`` lets a step replace a file that this pipeline did
-not write; otherwise the runner decides when to pass ``--overwrite`` (see ``pipeline_run``).
+must be an earlier step. The runner decides when to pass ``--overwrite`` (see ``pipeline_run``):
+a step replaces only files that this spec wrote, whatever its ``overwrite: true`` says.
 Which parameters are output paths is told by the jobs' declarations
 (:class:`CommandSchema`, built by :mod:`unerode_cli.pipeline.commands`).
+
+**Confinement.** A spec may be written by someone else, so every path it names is checked
+after symbolic links are resolved (:class:`Confinement`): the workdir must lie in the spec's
+folder, every output in the workdir, and every input (raster paths inside a ``--params`` file
+included) in the workdir, the spec's folder, a ``--data`` folder or the shipped folders of the
+unerode-cli checkout that runs it (:func:`checkout_folders`: its ``sample_dems/`` and
+``pipelines/``, and the ``shared/data`` folder beside it, read by the shipped specs). Values given
+with ``--var`` are checked where they are used. ``--allow-outside PATH`` (the user's own
+decision) admits PATH and what lies below it for all three. A path leading elsewhere
+(``../../x.tif``, an absolute path, a symbolic link out of the folder) is refused before any
+step runs.
 
 **Validation** raises :class:`~unerode_cli.errors.InputError` (exit code 2) naming the step and
 the field (``step 'past' (options.dt): ...``) for: an unknown subcommand or option, a value of
 the wrong type (a list for a flag, text for a number, a choice not offered), an undefined
 variable, a reference to an unknown or later step, an input file that neither exists nor is
-written by an earlier step, two steps writing the same file, and duplicate step names.
+written by an earlier step, two steps writing the same file, duplicate step names, and a path
+outside its confinement (:class:`OutsideError`, an InputError).
 """
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -62,11 +75,15 @@ from typing import Any, Literal, TypeVar
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from unerode_cli.errors import InputError
+from unerode_cli.io.parameter_file import named_rasters
 from unerode_cli.io.yaml_files import read_yaml_mapping
 
 Scalar = str | int | float | bool
 NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$"
 _REFERENCE = re.compile(r"\$(\$?)\{([^}]*)\}")
+_GLOB = re.compile(r"[*?\[]")
+#: The option whose file names parameter rasters (erode's and unerode's ``--params``).
+PARAMETER_FILE = "params"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -108,6 +125,104 @@ class CommandSchema:
         """The option a spec key names (``sea-level``, ``sea_level`` or ``--sea-level``)."""
         bare = key.lstrip("-")
         return self.options.get(bare) or self.options.get(bare.replace("_", "-"))
+
+
+# ---------------------------------------------------------------------------------------------
+# Where a spec's paths may lead.
+
+class OutsideError(InputError):
+    """A path of a spec leads outside its confinement (exit code 2, like any bad input; an
+    ensemble refuses itself whole for it rather than failing one member)."""
+
+
+#: The folders of a checkout whose files every spec may read (relative to the repository).
+SHIPPED_FOLDERS = ("sample_dems", "pipelines")
+
+
+def checkout_folders() -> tuple[Path, ...]:
+    """The folders of the unerode-cli source checkout this code runs from that specs may
+    read: the shipped sample DEMs and pipeline tables (:data:`SHIPPED_FOLDERS` of the
+    repository, ``pyproject.toml`` above ``src/unerode_cli``) and the ``shared/data`` folder
+    beside the repository, where the shipped specs find their chronologies; none for an
+    installed package. The rest of the checkout (sources, virtual environment) is not among
+    them."""
+    package = Path(__file__).resolve().parents[1]
+    root = package.parents[1]
+    if package.parent.name != "src" or not (root / "pyproject.toml").is_file():
+        return ()
+    folders = [root / name for name in SHIPPED_FOLDERS] + [root.parent / "shared" / "data"]
+    return tuple(folder.resolve() for folder in folders if folder.is_dir())
+
+
+@dataclass(frozen=True)
+class Confinement:
+    """Where the paths of a spec may lead (see the module docstring): ``data``, folders of
+    ``--data`` (inputs); ``allowed``, paths of ``--allow-outside`` (inputs, outputs and the
+    workdir); ``shipped``, the checkout's folders (inputs); ``writes_in`` names the place of
+    outputs in messages. Paths are compared after symbolic links are resolved."""
+
+    data: tuple[Path, ...] = ()
+    allowed: tuple[Path, ...] = ()
+    shipped: tuple[Path, ...] = field(default_factory=checkout_folders)
+    writes_in: str = "the workdir"
+
+    @classmethod
+    def from_options(cls, data: list[Path] | None, allowed: list[Path] | None,
+                     writes_in: str = "the workdir") -> Confinement:
+        """From ``--data`` (existing folders) and ``--allow-outside``; InputError when a
+        ``--data`` folder is not one."""
+        for folder in data or []:
+            if not Path(folder).expanduser().is_dir():
+                raise InputError(f"--data {folder}: no such folder; give a folder whose files the spec "
+                                 "may read.")
+        return cls(tuple(Path(f).expanduser().resolve() for f in data or []),
+                   tuple(Path(p).expanduser().resolve() for p in allowed or []), writes_in=writes_in)
+
+    def admits(self, path: Path, *roots: Path) -> bool:
+        """Whether the resolved ``path`` lies in one of ``roots`` or of ``--allow-outside``."""
+        return any(path == root or path.is_relative_to(root) for root in (*roots, *self.allowed))
+
+    def read_roots(self, workdir: Path, spec_folder: Path) -> tuple[Path, ...]:
+        """Every folder (or file) whose content a step may read, ``--allow-outside`` paths
+        included."""
+        return (workdir, spec_folder, *self.data, *self.shipped, *self.allowed)
+
+    def check_workdir(self, text: str, workdir: Path, spec_folder: Path) -> None:
+        """Refuse a workdir outside the spec's folder."""
+        if not self.admits(workdir, spec_folder):
+            raise OutsideError(f"spec field 'workdir': {text} leads to {workdir}, outside the spec's "
+                               f"folder {spec_folder}; a spec works inside its own folder (pass "
+                               f"--allow-outside {workdir} if you trust it).")
+
+    def check_output(self, context: str, text: str, path: Path, workdir: Path) -> None:
+        """Refuse an output outside the workdir."""
+        if not self.admits(path, workdir):
+            raise OutsideError(f"{context}: output {text} leads to {path}, outside {self.writes_in} "
+                               f"{workdir}; a spec writes only there (pass --allow-outside {path} if "
+                               "you trust it).")
+
+    def check_input(self, context: str, text: str, path: Path, workdir: Path, spec_folder: Path,
+                    subject: str = "") -> None:
+        """Refuse an input outside the workdir, the spec's folder, the ``--data`` folders and
+        the checkout; in an input folder, a symbolic link leading out as well. ``subject``
+        says what names the path in the message (default: ``input TEXT``)."""
+        roots = (workdir, spec_folder, *self.data, *self.shipped)
+        if self.admits(path, *roots):
+            links = [p for p in _entries(path) if p.is_symlink() and not self.admits(p.resolve(), *roots)]
+            if not links:
+                return
+            subject, path = f"input {links[0]}", links[0].resolve()
+        raise OutsideError(f"{context}: {subject or f'input {text}'} leads to {path}, outside the workdir, "
+                           "the spec's folder and the --data folders; pass --data with its folder (or "
+                           f"--allow-outside {path}) if you trust this spec.")
+
+
+def _entries(path: Path) -> list[Path]:
+    """The entries of a folder (none for a file or a missing path)."""
+    try:
+        return sorted(path.iterdir()) if path.is_dir() else []
+    except OSError:
+        return []
 
 
 # ---------------------------------------------------------------------------------------------
@@ -212,11 +327,13 @@ class ResolvedStep:
 
 @dataclass
 class ResolvedPipeline:
-    """The validated pipeline: where it runs and its steps in order."""
+    """The validated pipeline: where it runs, its steps in order, and where its paths may lead
+    (also checked by the runner as each step's job clears its outputs)."""
 
     spec_path: Path
     workdir: Path
     steps: list[ResolvedStep]
+    confinement: Confinement = field(default_factory=Confinement)
 
     @property
     def state_path(self) -> Path:
@@ -235,19 +352,23 @@ def parse_var_overrides(items: list[str]) -> dict[str, str]:
 
 
 def resolve(spec: PipelineSpec, spec_path: Path, schemas: Mapping[str, CommandSchema],
-            overrides: Mapping[str, str] | None = None) -> ResolvedPipeline:
-    """Validate ``spec`` against the subcommands and return the steps' command lines."""
+            overrides: Mapping[str, str] | None = None,
+            confinement: Confinement | None = None) -> ResolvedPipeline:
+    """Validate ``spec`` against the subcommands, its paths against ``confinement`` (default:
+    no ``--data`` or ``--allow-outside``), and return the steps' command lines."""
+    confinement = confinement or Confinement()
     variables = _variables(spec, overrides or {})
     base = spec_path.resolve().parent
     workdir = base
     if spec.workdir is not None:
         text = _substitute(spec.workdir, variables, {}, "workdir")
-        workdir = (base / str(text)).resolve()
+        workdir = (base / Path(str(text)).expanduser()).resolve()
+        confinement.check_workdir(str(text), workdir, base)
         if workdir.exists() and not workdir.is_dir():
             raise InputError(f"spec field 'workdir': {workdir} is a file, not a folder.")
-    resolver = _Resolver(workdir, variables, schemas, {s.name for s in spec.steps})
+    resolver = _Resolver(workdir, variables, schemas, {s.name for s in spec.steps}, base, confinement)
     steps = [resolver.step(step) for step in spec.steps]
-    return ResolvedPipeline(spec_path.resolve(), workdir, steps)
+    return ResolvedPipeline(spec_path.resolve(), workdir, steps, confinement)
 
 
 def _variables(spec: PipelineSpec, overrides: Mapping[str, str]) -> dict[str, Scalar | None]:
@@ -313,9 +434,12 @@ class _Resolver:
     """Walks the steps in order, remembering what earlier steps write."""
 
     def __init__(self, workdir: Path, variables: Mapping[str, Scalar | None],
-                 schemas: Mapping[str, CommandSchema], names: set[str]) -> None:
+                 schemas: Mapping[str, CommandSchema], names: set[str], spec_folder: Path,
+                 confinement: Confinement) -> None:
         self.names = names
         self.workdir = workdir
+        self.spec_folder = spec_folder
+        self.confinement = confinement
         self.variables = variables
         self.schemas = schemas
         self.primary: dict[str, str | None] = {}   # step name -> its first output as written
@@ -338,7 +462,7 @@ class _Resolver:
 
         argv: list[str] = [schema.name]
         outputs_written: list[str] = []
-        inputs: list[tuple[str, str, bool]] = []     # (text, field, required to exist)
+        inputs: list[tuple[str, str, bool, str]] = []     # (text, field, required to exist, name)
         values: dict[str, Any] = {}
         argv_args = self._arguments(step, schema, sub, outputs_written, inputs, values)
         argv_opts, overwrite = self._options(step, schema, sub, outputs_written, inputs, values)
@@ -348,21 +472,33 @@ class _Resolver:
 
         produced_by: set[str] = set()
         input_paths: list[Path] = []
-        for text, where, required in inputs:
+        for text, where, required, name in inputs:
             p = self.path(text)
+            if required or p in self.writers or p.exists():
+                self.confinement.check_input(f"{who} ({where})", text, p, self.workdir, self.spec_folder)
             if p in self.writers:
                 produced_by.add(self.writers[p])
                 input_paths.append(p)
             elif p.exists():
                 input_paths.append(p)
+                if name == PARAMETER_FILE:
+                    self._check_parameter_file(f"{who} ({where})", p)
             elif required:
                 raise InputError(f"{who} ({where}): input file {text} does not exist "
                                  "and no earlier step writes it.")
+            elif _GLOB.search(text):
+                folder = self.path(_glob_folder(text))
+                self.confinement.check_input(f"{who} ({where})", text, folder, self.workdir,
+                                             self.spec_folder, f"the pattern {text}, whose folder")
         output_paths: list[Path] = []
         for text in outputs_written:
             p = self.path(text)
+            self.confinement.check_output(f"{who} (outputs)", text, p, self.workdir)
             if p in self.writers:
                 raise InputError(f"{who} (outputs): {text} is also written by step '{self.writers[p]}'.")
+            if any(_same_file(p, source) for source in input_paths):
+                raise InputError(f"{who} (outputs): {text} is also an input of this step; inputs are never "
+                                 "overwritten, whatever overwrite says, so give the output another name.")
             output_paths.append(p)
         for p in output_paths:
             self.writers[p] = step.name
@@ -444,13 +580,36 @@ class _Resolver:
         return argv, overwrite
 
     def _note_path(self, text: str, param: ParamSchema, where: str,
-                   outputs_written: list[str], inputs: list[tuple[str, str, bool]]) -> None:
+                   outputs_written: list[str], inputs: list[tuple[str, str, bool, str]]) -> None:
         if param.type == "path" and param.role == "output":
             outputs_written.append(text)
         elif param.type == "path":
-            inputs.append((text, where, True))
+            inputs.append((text, where, True, param.name))
         elif param.type == "str" and text:
-            inputs.append((text, where, False))   # e.g. a parameter raster: hashed if a file
+            inputs.append((text, where, False, param.name))   # e.g. a parameter raster: hashed if a file
+
+    def _check_parameter_file(self, context: str, path: Path) -> None:
+        """Refuse a ``--params`` file that names a raster outside the confinement."""
+        for text, raster in named_rasters(path):
+            self.confinement.check_input(context, text, raster, self.workdir, self.spec_folder,
+                                         f"{path.name} names the raster {text}, which")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether the resolved paths ``a`` and ``b`` are one file (also as hard links)."""
+    if a == b:
+        return True
+    try:
+        return a.is_file() and b.is_file() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _glob_folder(pattern: str) -> str:
+    """The folder a glob pattern searches: its parts before the first with ``*``, ``?`` or ``[``."""
+    parts = Path(pattern).parts
+    kept = [part for part in parts[:next(i for i, p in enumerate(parts) if _GLOB.search(p))]]
+    return str(Path(*kept)) if kept else "."
 
 
 def _unique(paths: list[Path]) -> list[Path]:

@@ -182,13 +182,21 @@ def fluvial_sweep_into(zf, outlets, order, dx, dy, single, source, coef, k_d, m,
             spread(qs, i, off, frac, leaving, interior)
 
 
+#: Cells of ``order`` per block of :func:`settle_into`'s sums: the blocks depend on the number of
+#: cells only, never on the number of threads.
+SETTLE_BLOCK = 16384
+
+
 @numba.njit(cache=True, parallel=True)
 def settle_into(order, net, qs, outlets, uplift, dt, area, dh):
-    """Elevation change and mass budget of a step after ``fluvial_sweep_into``, in parallel:
+    """Elevation change and mass budget of a step after ``fluvial_sweep_into``:
 
       Δh = dt·(U − (E − D))                         (000 Eq. 8)
 
-    on the cells of ``order`` that are not outlets (outlets keep their elevation: no uplift).
+    on the cells of ``order`` that are not outlets (outlets keep their elevation: no uplift),
+    in parallel. The budget is summed in fixed blocks of :data:`SETTLE_BLOCK` consecutive cells
+    of ``order`` (each block in order, on any thread), then block after block, so that it is the
+    same to the last bit whatever the number of threads and their scheduling.
 
     Args:
         order: flat indices of the cells (``Routing.order``).
@@ -202,18 +210,31 @@ def settle_into(order, net, qs, outlets, uplift, dt, area, dh):
     Returns:
         (Σ max(0, E − D)·A and Σ max(0, D − E)·A over those cells, Σ Qs over outlets), m³/y.
     """
+    blocks = (order.size + SETTLE_BLOCK - 1) // SETTLE_BLOCK
+    sums = np.zeros((blocks, 3))
+    for b in numba.prange(blocks):
+        eroded = 0.0
+        deposited = 0.0
+        outflow = 0.0
+        for p in range(b * SETTLE_BLOCK, min((b + 1) * SETTLE_BLOCK, order.size)):
+            i = order[p]
+            if outlets[i]:
+                outflow += qs[i]
+                continue
+            rate = net[p]
+            dh[i] = dt * (_at(uplift, i) - rate)
+            eroded += max(rate, 0.0) * area
+            deposited += max(-rate, 0.0) * area
+        sums[b, 0] = eroded
+        sums[b, 1] = deposited
+        sums[b, 2] = outflow
     eroded = 0.0
     deposited = 0.0
     outflow = 0.0
-    for p in numba.prange(order.size):
-        i = order[p]
-        if outlets[i]:
-            outflow += qs[i]
-            continue
-        rate = net[p]
-        dh[i] = dt * (_at(uplift, i) - rate)
-        eroded += max(rate, 0.0) * area
-        deposited += max(-rate, 0.0) * area
+    for b in range(blocks):
+        eroded += sums[b, 0]
+        deposited += sums[b, 1]
+        outflow += sums[b, 2]
     return eroded, deposited, outflow
 
 

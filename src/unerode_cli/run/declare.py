@@ -26,11 +26,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from unerode_cli.io.parameter_file import named_rasters
 from unerode_cli.processes.parameters import ParamSpec
 from unerode_cli.run.values import OptionParser, ParameterValue, unit_suffix
 
 Kind = Literal["value", "flag", "count", "multiple"]
 Role = Literal["input", "output", "other"]
+
+#: Names of the output options that are folders when their declaration does not say
+#: (:attr:`Opt.folder`).
+FOLDER_OUTPUTS = frozenset({"out", "out_dir"})
+
+#: Name of the option that gives a parameter file (YAML: parameter → number or raster path).
+PARAMETER_FILE = "params"
 
 
 @dataclass(frozen=True)
@@ -56,6 +64,8 @@ class Opt:
         record: whether the value goes into the output's provenance (True: under ``name``),
             or the key it is recorded under.
         metavar: placeholder of the value in the help.
+        folder: for an output, whether it names a folder the job fills rather than a file
+            (None: inferred, the outputs named ``out`` and ``out_dir`` are folders).
     """
 
     name: str
@@ -75,6 +85,7 @@ class Opt:
     maximum: float | None = None
     record: bool | str = True
     metavar: str | None = None
+    folder: bool | None = None
 
     @property
     def long_flag(self) -> str:
@@ -97,6 +108,13 @@ class Opt:
     @property
     def is_path(self) -> bool:
         return self.type is Path
+
+    @property
+    def is_folder(self) -> bool:
+        """Whether this path option names a folder (a report or output folder), not a file."""
+        if self.folder is not None:
+            return self.folder
+        return self.is_path and self.name in FOLDER_OUTPUTS
 
     def convert(self, value: Any) -> Any:
         """The field value of one given value (text from a spec, or a Python value): parsed,
@@ -319,3 +337,45 @@ def paths(job: Any, role: Role) -> list[Path]:
         if opt.is_path and opt.role == role:
             found += [Path(p) for p in _items(getattr(job, opt.name)) if p is not None]
     return found
+
+
+def outputs_of(job: Any) -> list[tuple[Opt, Path]]:
+    """(declaration, path) of every output the job's options name, in declaration order."""
+    found: list[tuple[Opt, Path]] = []
+    for opt in job.OPTIONS:
+        if opt.is_path and opt.role == "output":
+            found += [(opt, Path(p)) for p in _items(getattr(job, opt.name)) if p is not None and str(p)]
+    return found
+
+
+def read_files(job: Any) -> list[Path]:
+    """Every path the job reads as its options say, never to be one of its outputs: each path
+    declared as an input, each value of another option that is not an output and names an
+    existing file — a process parameter's raster or table (``--K k.tif``, ``--uplift T.csv``),
+    an ELA table (``--ela e.csv``) — and each existing raster a parameter file (``--params``)
+    names."""
+    found: list[Path] = []
+    for opt in job.OPTIONS:
+        if opt.role == "output" or opt.kind in ("flag", "count"):
+            continue
+        for value in _items(getattr(job, opt.name)):
+            if not isinstance(value, str | Path) or not str(value):
+                continue
+            path = Path(value)
+            if (opt.is_path and opt.role == "input") or _is_file(path):
+                found.append(path)
+                if opt.name == PARAMETER_FILE and _is_file(path):
+                    found += [raster for _, raster in named_rasters(path) if _is_file(raster)]
+    return found
+
+
+def resume_flag(job: Any) -> str:
+    """The flag that continues an interrupted run of ``job`` (``--resume``), '' when it has none."""
+    return next((opt.long_flag for opt in job.OPTIONS if opt.name == "resume" and opt.kind == "flag"), "")
+
+
+def _is_file(path: Path) -> bool:
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False

@@ -6,6 +6,8 @@ each step: all cells of the domain finite, and no cell moved from where it start
 than ``RELIEF_FACTOR`` × the DEM's relief + ``FLOOR_M`` + max|U|·|t| (uplift U in m/y, t the
 simulated years so far). Real runs stay far inside this bound (erosion and unerosion rework
 the relief they are given; they do not multiply it), so passing it means the run diverged.
+A DEM whose relief itself overflows float64 (elevations of ±1e308 m) is refused when the guard
+is made, before the first step.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from unerode_cli.errors import RunFailure
+from unerode_cli.errors import InputError, RunFailure
 
 #: A cell may move by this many times the DEM's relief (m/m) ...
 RELIEF_FACTOR = 5.0
@@ -41,7 +43,12 @@ class DivergenceGuard:
         self.reference = np.ascontiguousarray(self.reference, dtype=np.float64)
         self.inside = np.isfinite(self.reference)
         values = self.reference[self.inside]
-        self.relief = float(values.max() - values.min()) if values.size else 0.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            self.relief = float(values.max() - values.min()) if values.size else 0.0
+        if not np.isfinite(self.relief):
+            raise InputError(
+                f"the DEM's elevations span {values.min():.3g} to {values.max():.3g} m, a relief too large "
+                "to compute with; check its values and units (metres).")
 
     def allowed_change(self, elapsed_years: float) -> float:
         """Largest |h − h₀| (m) a sane run may reach after ``elapsed_years``."""

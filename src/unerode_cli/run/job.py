@@ -7,13 +7,20 @@ and run in three phases by :func:`execute`:
 1. ``plan(outputs)``: read and check every input, clear every output on the
    :class:`~unerode_cli.io.paths.OutputPlan` (exists without ``--overwrite``, is an input,
    folder, format), estimate memory; no computation. Bad input raises
-   :class:`~unerode_cli.errors.InputError` here, before any work.
+   :class:`~unerode_cli.errors.InputError` here, before any work. Before it, every file the
+   job's options name for reading (:func:`~unerode_cli.run.declare.read_files`: declared
+   inputs, parameter rasters and tables given as text, rasters a parameter file names) is
+   recorded as an input of the plan, so that no output of any job is one of them, and the
+   outputs its options name are checked (not an input, not two on one file, their folders
+   writable); after it, the outputs are checked against the free space of their file systems.
 2. ``run(planned, progress)``: the computation, on arrays. Long loops report through
    ``progress`` and stop early when ``progress.cancelled()`` says so.
 3. ``write(result, outputs)``: the outputs, written atomically through the plan; returns the
    one-line summary.
 
-A run that fails (:class:`~unerode_cli.errors.RunFailure`) keeps none of the files it wrote.
+A run that fails (:class:`~unerode_cli.errors.RunFailure`) keeps none of the files it wrote,
+except when an output could not be written (:class:`~unerode_cli.errors.WriteFailure`): the
+complete files written before it are kept.
 """
 
 from __future__ import annotations
@@ -22,9 +29,10 @@ import sys
 from collections.abc import Callable
 from typing import Any, ClassVar
 
-from unerode_cli.errors import RunFailure
-from unerode_cli.io.paths import OutputPlan
-from unerode_cli.run.declare import Opt, command_line, provenance
+from unerode_cli.errors import RunFailure, WriteFailure
+from unerode_cli.io.paths import OutputPlan, os_error_reason
+from unerode_cli.run import memory as _memory  # noqa: F401 - registers the memory check of every raster read
+from unerode_cli.run.declare import Opt, command_line, outputs_of, provenance, read_files, resume_flag
 
 
 class Summary(str):
@@ -140,17 +148,35 @@ class Job:
 
 def execute(job: Job, progress: Progress | None = None, outputs: OutputPlan | None = None) -> str:
     """Plan, run and write ``job`` with ``outputs`` (a new plan by default) active; returns the
-    job's summary. A :class:`RunFailure` removes the files written so far (recorded in
-    ``outputs.removed``) before it propagates; any exception leaves no temporary file."""
+    job's summary.
+
+    Before the job plans, the files its options name for reading are inputs of the plan, and
+    the outputs its options name are checked (InputError): none is an input (through links
+    too), no two are one file, a file output is no folder, and each folder above them exists
+    and is writable. After it plans, the outputs it cleared must fit in the free space
+    (InputError). A :class:`RunFailure` removes the files written so far (recorded in
+    ``outputs.removed``) before it propagates, except a :class:`WriteFailure` (an output that
+    could not be written; an OSError of ``write`` becomes one), which keeps them; any
+    exception leaves no temporary file."""
     progress = progress or Progress()
     outputs = outputs or OutputPlan()
     with outputs.active():
         outputs.command_line = job.command_line()
+        outputs.resume_flag = resume_flag(job)
+        for path in read_files(job):
+            outputs.read(path)
         try:
+            outputs.check_destinations((path, opt.is_folder) for opt, path in outputs_of(job))
             planned = job.plan(outputs)
+            outputs.check_space()
             result = job.run(planned, progress)
             progress.finish()
-            return job.write(result, outputs)
+            try:
+                return job.write(result, outputs)
+            except OSError as exc:
+                raise WriteFailure(f"writing the outputs failed: {os_error_reason(exc)}") from None
+        except WriteFailure:
+            raise
         except RunFailure:
             outputs.discard_written()
             raise

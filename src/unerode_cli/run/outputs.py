@@ -7,6 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from unerode_cli.errors import InputError
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.paths import atomic_path, check_output
@@ -75,6 +77,13 @@ def check_previewable(terrain: Terrain, source: Path | str) -> None:
     if ny < 2 or nx < 2:
         raise InputError(f"{source} has {ny} × {nx} cells; a preview needs at least 2 × 2.")
     terrain.check_valid(source)
+    valid = terrain.elevation[np.isfinite(terrain.elevation)]
+    relief = float(valid.max()) - float(valid.min())
+    # The hillshade squares slopes (relief ÷ cell size): beyond ~1e150 they overflow.
+    if not np.isfinite(relief) or relief / min(abs(terrain.dx), abs(terrain.dy)) > 1e150:
+        raise InputError(f"{source} spans elevations from {float(valid.min()):.3g} to "
+                         f"{float(valid.max()):.3g} m, too wide a range to shade; check its values "
+                         "(a scale factor or nodata value mistaken for elevations?).")
 
 
 def save(

@@ -12,10 +12,13 @@ from unerode_cli.io.terrain import Terrain
 from unerode_cli.processes.parameters import ParamSpec
 
 
-def resolve(spec: ParamSpec, value: str | float, terrain: Terrain) -> float | np.ndarray:
+def resolve(spec: ParamSpec, value: str | float, terrain: Terrain,
+            files: str = "a raster") -> float | np.ndarray:
     """A parameter value from a number or a raster path, validated against ``spec``.
 
     Raster values outside the domain (nodata) are ignored; inside it they must be finite.
+    A text that is neither a number nor the path of an existing file is refused as such
+    (``files`` names the files the parameter also takes, for that sentence).
     """
     number = _as_number(value)
     if number is not None:
@@ -23,7 +26,10 @@ def resolve(spec: ParamSpec, value: str | float, terrain: Terrain) -> float | np
     elif not spec.raster:
         raise InputError(f"parameter {spec.name} must be a number, got '{value}'.")
     else:
-        layer = load_on_grid(Path(str(value)), terrain, f"parameter {spec.name}")
+        path = Path(str(value))
+        if not _exists(path):
+            raise InputError(f"parameter {spec.name} is '{value}', neither a number nor {files} that exists.")
+        layer = load_on_grid(path, terrain, f"parameter {spec.name}")
         valid = ~terrain.nodata_mask
         if not np.isfinite(layer[valid]).all():
             raise InputError(f"parameter raster {value} has nodata inside the DEM's domain.")
@@ -40,3 +46,10 @@ def _as_number(value: str | float) -> float | None:
         return float(value)
     except ValueError:
         return None
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except (OSError, ValueError):  # a name too long, a NUL character
+        return False

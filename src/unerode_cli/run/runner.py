@@ -14,7 +14,7 @@ from typing import Protocol
 
 import numpy as np
 
-from unerode_cli.errors import InputError
+from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.run.divergence import DivergenceGuard
 
 #: More sub-steps than this in one step is refused: --dt is far above the stable step.
@@ -77,12 +77,19 @@ class RunReport:
     elapsed_years: float = 0.0
 
 
+class NoStableStep(ValueError):
+    """A process whose stable |dt| is 0 or not a number: no sub-step is small enough."""
+
+
 def substeps_needed(dt: float, stable: float) -> int:
-    """Number of equal sub-steps so that each is within the stable |dt|."""
-    if not math.isfinite(stable):
+    """Number of equal sub-steps so that each is within the stable |dt| (y; inf: any step).
+
+    Raises :class:`NoStableStep` when ``stable`` is 0, negative or NaN (a process whose speed
+    overflowed, e.g. a rate parameter of 1e308): no number of sub-steps is stable."""
+    if math.isnan(stable) or stable <= 0.0:
+        raise NoStableStep(stable)
+    if math.isinf(stable):
         return 1
-    if stable <= 0.0:
-        raise RuntimeError("a process reported a non-positive stable time step")
     return max(1, math.ceil(abs(dt) / stable * (1.0 - 1e-12)))
 
 
@@ -106,12 +113,16 @@ class StepApplier:
         self.report = RunReport(substeps={p.name: 0 for p in processes},
                                 budgets={p.name: Budget() for p in processes})
         self.noted: set[str] = set()
+        self.started = False
 
     def step(self, h: np.ndarray, i: int) -> None:
         """Advance ``h`` (m, changed in place) by step ``i`` (1-based)."""
         dt = self.dt
         for process in self.processes:
-            n_sub = substeps_needed(dt, process.stable_dt(h, dt))
+            try:
+                n_sub = substeps_needed(dt, process.stable_dt(h, dt))
+            except NoStableStep:
+                self._no_stable_step(process.name, i)
             if n_sub > MAX_SUBSTEPS:
                 raise InputError(
                     f"a time step of {abs(dt):g} years would need {float(n_sub):.3g} {process.name} "
@@ -127,6 +138,7 @@ class StepApplier:
                              f"{abs(dt) / n_sub:.4g} years{at}) to stay stable (CFL).")
                 self.noted.add(process.name)
             for _ in range(n_sub):
+                self.started = True
                 change = process.advance(h, dt / n_sub)
                 h += change.dh
                 self.report.budgets[process.name].add(change.eroded, change.deposited, change.outflux,
@@ -136,6 +148,17 @@ class StepApplier:
         elapsed = self.report.elapsed_years = i * dt
         if self.guard is not None:
             self.guard.check(h, elapsed, f"in step {i} (t = {elapsed:g} y)")
+
+    def _no_stable_step(self, name: str, i: int) -> None:
+        """Refuse a process with no stable time step: bad parameters (InputError) when nothing
+        was computed yet, else a run that became unstable (RunFailure)."""
+        if not self.started:
+            raise InputError(
+                f"the {name} process has no stable time step on this terrain (no sub-step is short "
+                "enough): its rate parameters are too large (e.g. --K or --k-th); lower them.")
+        raise RunFailure(
+            f"the run became unstable in step {i}: the {name} process has no stable time step any "
+            "more (no sub-step is short enough); lower its rate parameters.")
 
 
 def run(

@@ -14,10 +14,14 @@ step — and the loop does the rest, the same way for every job:
   the loop writes a checkpoint and returns normally with ``finished`` False.
 - **Checkpoints.** Every ``every`` steps, and at a stop, the stepper's state is saved atomically
   (:func:`~unerode_cli.io.checkpoints.write_state_checkpoint`); a finished run removes it.
+- **Limit.** A run of more than :data:`MAX_STEPS` steps (10 million) is refused (InputError,
+  exit 2) before any step: jobs check their step count in ``plan()`` with
+  :func:`check_step_count`, and the loop checks it again before the first step.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -75,6 +79,22 @@ class Stepped:
 
 NO_CHECKPOINTS = Checkpoints(None)
 
+#: The most time steps one run may take (a documented limit: at a millisecond a step, about
+#: three hours; longer runs are split with --max-steps and --resume, or take a larger --dt).
+MAX_STEPS = 10_000_000
+
+
+def check_step_count(count: float, how: str,
+                     change: str = "give a larger --dt or a shorter --duration") -> int:
+    """The step count ``count`` of a run as a whole number, refused (InputError) when it is not
+    finite or exceeds :data:`MAX_STEPS`. ``how`` says where the count comes from ("--duration
+    1e+308 y in steps of --dt 1000 y", "--steps"), ``change`` what to change."""
+    if not (math.isfinite(count) and count <= MAX_STEPS):
+        shown = f"{count:,.0f}" if math.isfinite(count) and count < 1e18 else f"{count:.3g}"
+        raise InputError(f"{how} gives {shown} time steps, more than the limit of {MAX_STEPS:,} steps per "
+                         f"run; {change}.")
+    return max(int(round(count)), 0)
+
 
 def step_through(stepper: Stepper, steps: int | None, progress: Progress, label: str,
                  checkpoints: Checkpoints = NO_CHECKPOINTS, max_steps: int | None = None,
@@ -82,6 +102,8 @@ def step_through(stepper: Stepper, steps: int | None, progress: Progress, label:
     """Run ``steps`` steps of ``stepper`` (see the module docstring), or with ``steps`` None
     until a step reports ``last``. ``years``: the simulated years of the whole run when progress
     counts years (steps report ``done``), else None."""
+    if steps is not None:
+        check_step_count(steps, f"this {label} run", "give a larger --dt or fewer steps")
     first = _resumed(stepper, steps, progress, checkpoints)
     end = steps if steps is not None else float("inf")
     last = end if max_steps is None else min(end, first + max_steps)

@@ -20,6 +20,7 @@ from unerode_cli.climate.phases import PhaseThresholds, classify
 from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, sea_level
 from unerode_cli.errors import InputError
 from unerode_cli.io.chronology_files import read_series
+from unerode_cli.run.stepping import check_step_count
 
 if TYPE_CHECKING:
     from unerode_cli.jobs.climate_run.job import ClimateJob
@@ -102,6 +103,8 @@ def step_count(job: ClimateJob) -> int:
     if count < 0.5:
         raise InputError(f"--dt {job.dt:g} years is longer than the span {job.from_ka:g}–{job.to_ka:g} ka "
                          "of the run.")
+    check_step_count(count, f"the span {job.from_ka:g}–{job.to_ka:g} ka in steps of --dt {job.dt:g} y",
+                     "give a larger --dt or a shorter span")
     if abs(count - round(count)) > 1e-9 * max(1.0, count):
         raise InputError(f"the span {job.from_ka:g}–{job.to_ka:g} ka is not a whole number of "
                          f"--dt {job.dt:g} year steps.")

@@ -113,7 +113,8 @@ def plan(job: ClimateJob, plan_outputs: OutputPlan | None = None, progress: Prog
     for name in names:
         for spec in REGISTRY[name].parameters:
             text = given.get(spec.name)
-            base[spec.name] = resolve(spec, spec.default if text is None else text, terrain)
+            files = "a raster or a CSV table" if spec.name == UPLIFT.name else "a raster"
+            base[spec.name] = resolve(spec, spec.default if text is None else text, terrain, files)
     _check_scalable(job, schedule, base)
     uplift = _uplift_history(job, table, terrain, schedule)
     sea_start = run_forcing.sea_start if job.sea_outlets else None
@@ -146,12 +147,17 @@ def plan(job: ClimateJob, plan_outputs: OutputPlan | None = None, progress: Prog
 def _check_outputs(job: ClimateJob, names: list[str], steps: int, outputs: Outputs) -> None:
     """Clear, before any work, the snapshots (each at the end of a step), the timeline, the
     nesting rasters, the chronology plot and the checkpoint."""
-    step_ends = {round(job.from_ka + (1 if job.backward else -1) * k * job.dt / 1000.0, 9)
-                 for k in range(1, steps + 1)}
+    low, high = sorted((job.from_ka, job.to_ka))
+    span = f"{job.from_ka:g} → {job.to_ka:g} ka"
     for age in job.snapshot_ages:
-        if round(age, 9) not in step_ends:
+        if not low - 1e-9 <= age <= high + 1e-9:
+            raise InputError(f"snapshot age {age:g} ka is outside the run, which spans {span}; "
+                             "give ages within it.")
+        k = round(abs(age - job.from_ka) * 1000.0 / job.dt)
+        step_end = round(job.from_ka + (1 if job.backward else -1) * k * job.dt / 1000.0, 9)
+        if not 1 <= k <= steps or round(age, 9) != step_end:
             raise InputError(f"snapshot age {age:g} ka is not the end of a step of the run "
-                             f"({job.from_ka:g} → {job.to_ka:g} ka by {job.dt:g} years).")
+                             f"({span} by {job.dt:g} years).")
     check_checkpoint(job.output, job.resume, job.overwrite, (job.source,))
     for path in [snapshot_path(job.output, a) for a in job.snapshot_ages]:
         check_raster(path, outputs.options, job.replaces, (job.source,))

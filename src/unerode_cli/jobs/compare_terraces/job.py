@@ -95,14 +95,17 @@ class TerraceJob(Job):
             raise InputError(f"the folder above the report folder {self.out} does not exist.")
         present = read_terrain(self.present)
         present.check_valid(self.present)
+        # a radius past the DEM's diagonal reaches no further cell than the diagonal itself
+        ny, nx = present.shape
+        radius = min(self.search_radius, float(np.hypot(ny * present.dy, nx * present.dx)))
         if self.river is not None:
-            river = river_from_line(self.river, present, self.search_radius)
+            river = river_from_line(self.river, present, radius)
         else:
             river = main_river(present, parse_point(self.river_start), self.outlets, self.sea_level,
                                self.min_area_fraction)
         files = snapshot_files(entries, self.present)
-        beds, listed = snapshot_beds(files, present, river, self.search_radius)
-        present_bed = bed_profile(present.elevation, river, present.dx, present.dy, self.search_radius)
+        beds, listed = snapshot_beds(files, present, river, radius)
+        present_bed = bed_profile(present.elevation, river, present.dx, present.dy, radius)
         if not np.isfinite(present_bed).any():
             raise InputError("the river lies entirely on nodata cells of the present DEM.")
         terraces = ([] if self.observations is None else

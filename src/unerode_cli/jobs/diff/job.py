@@ -60,6 +60,10 @@ class DiffJob(Job):
             values, stats = difference(planned.a.elevation, planned.b.elevation)
         except ValueError as exc:  # no valid cell in common
             raise InputError(f"{self.a} and {self.b}: {exc}.") from None
+        largest = max(abs(stats.min_m), abs(stats.max_m))
+        if self.dtype == "float32" and not largest <= float(np.finfo(np.float32).max):
+            raise InputError(f"the difference of {self.b} and {self.a} reaches {largest:.3g} m, more than a "
+                             "float32 raster holds; write it with --dtype float64.")
         progress.data(f"cells {stats.cells}  RMSE {stats.rmse_m:.6g} m  mean {stats.mean_m:+.6g} m  "
                       f"MAE {stats.mae_m:.6g} m  min {stats.min_m:.6g} m  max {stats.max_m:.6g} m  "
                       f"r {stats.correlation:.6f}")

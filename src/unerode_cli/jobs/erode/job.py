@@ -46,6 +46,7 @@ from unerode_cli.run.stepping import (
     Checkpoints,
     StepInfo,
     Stepped,
+    check_step_count,
     finish_checkpoints,
     step_through,
 )
@@ -158,7 +159,8 @@ class ErosionSteps:
 
 
 def step_count(dt: float, duration: float | None, steps: int | None) -> int:
-    """Steps from --duration or --steps (exactly one of them), checked."""
+    """Steps from --duration or --steps (exactly one of them), checked: at most
+    ``stepping.MAX_STEPS``."""
     if not (math.isfinite(dt) and dt > 0):
         raise InputError(f"--dt must be a positive number of years, got {dt:g}.")
     if (duration is None) == (steps is None):
@@ -166,11 +168,13 @@ def step_count(dt: float, duration: float | None, steps: int | None) -> int:
     if steps is not None:
         if steps < 1:
             raise InputError(f"--steps must be at least 1, got {steps}.")
-        return steps
+        return check_step_count(steps, "--steps", "give fewer --steps (split a long run with "
+                                "--max-steps and --resume) or a larger --dt")
     assert duration is not None
     if not (math.isfinite(duration) and duration > 0):
         raise InputError(f"--duration must be a positive number of years, got {duration:g}.")
     count = duration / dt
+    check_step_count(count, f"--duration {duration:g} y in steps of --dt {dt:g} y")
     if abs(count - round(count)) > 1e-9 * max(1.0, count):
         raise InputError(f"--duration {duration:g} is not a whole number of --dt {dt:g} steps.")
     return max(1, round(count))
@@ -192,6 +196,10 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
         if not (job.snapshot_every > 0 and whole):
             raise InputError("--snapshot-every must be a positive whole multiple of --dt (years).")
         stride = max(1, round(stride_f))
+        if stride > steps:
+            raise InputError(f"--snapshot-every {job.snapshot_every:g} years is longer than the run, "
+                             f"which lasts {steps * job.dt:g} years: no snapshot would be written; "
+                             "give a shorter interval.")
     if plan_outputs is not None:
         for path in (job.source, job.params, job.dirichlet, job.inflow):
             if path is not None:

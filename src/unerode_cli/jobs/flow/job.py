@@ -74,6 +74,8 @@ class FlowJob(Job):
         written.check_source(terrain, self.dem)
         bounds = boundaries_from_options(terrain, self.outlets, self.sea_level, self.dirichlet)
         rain = resolve(PRECIPITATION, self.precipitation, terrain)
+        if self.what == "discharge":
+            _check_discharge_fits(rain, terrain, self.precipitation)
         return PlannedFlow(terrain, bounds, rain, written)
 
     def run(self, planned: PlannedFlow, progress: Progress) -> tuple[PlannedFlow, FlowField]:
@@ -100,6 +102,20 @@ class FlowJob(Job):
             field_preview(field.values, planned.terrain, self.preview, f"{self.what} ({unit})",
                           log=self.what != "receivers", title=self.output.name)
         return ""
+
+
+def _check_discharge_fits(rain: float | np.ndarray, terrain: Terrain, given: str) -> None:
+    """Refuse a precipitation (m/y) whose discharge could exceed what the float32 output holds:
+    no discharge is above the precipitation summed over the DEM's domain times a cell's area
+    (m³/y)."""
+    valid = ~terrain.nodata_mask
+    with np.errstate(over="ignore", invalid="ignore"):
+        per_cell = np.broadcast_to(np.asarray(rain, dtype=np.float64), valid.shape)[valid]
+        total = float(np.sum(per_cell, dtype=np.float64)) * terrain.grid.cell_area
+    if not total <= float(np.finfo(np.float32).max):
+        raise InputError(f"--precipitation {given} m/y over the DEM could give discharges above "
+                         f"{np.finfo(np.float32).max:.3g} m³/y, more than a float32 raster holds; give a "
+                         "smaller precipitation.")
 
 
 def _raster_path(value: str) -> Path | None:

@@ -10,12 +10,14 @@ in its sidecar).
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Any
 
 from unerode_cli.glacier import coupled
 from unerode_cli.io.paths import OutputPlan
+from unerode_cli.io.rasters import read_header
 from unerode_cli.jobs.glaciate.options import OPTIONS
 from unerode_cli.run.declare import declared
 from unerode_cli.run.glacial.options import GlacierRun
@@ -24,11 +26,19 @@ from unerode_cli.run.glacial.plan import (
     DIAGNOSTIC_MAX_ITER,
     DIAGNOSTIC_RTOL,
     PreparedGlacierRun,
+    duration,
     plan_glacier,
 )
 from unerode_cli.run.glacial.steps import GlacierOutcome, run_glacier
 from unerode_cli.run.job import Job, Progress
+from unerode_cli.run.memory import check_fits
 from unerode_cli.run.outputs import Outputs, save
+from unerode_cli.run.stepping import check_step_count
+
+#: Peak bytes per cell and lattice level of the Blatter–Pattyn solve (001 §4.2): the levels'
+#: elevations, the two velocity components, their gradients and the solver's work vectors
+#: (about 15 float64 arrays of (layers + 1) × rows × columns).
+BLATTER_BYTES_PER_LEVEL_CELL = 120
 
 
 @declared("glaciate", OPTIONS)
@@ -36,6 +46,7 @@ class GlacierJob(GlacierRun, Job):
     """Grow glaciers on a DEM and erode its bed, or solve the velocity of a geometry once."""
 
     def plan(self, outputs: OutputPlan) -> PreparedGlacierRun:
+        check_sizes(self)
         return plan_glacier(self, outputs)
 
     def run(self, planned: PreparedGlacierRun, progress: Progress) -> tuple[PreparedGlacierRun, Any]:
@@ -49,6 +60,26 @@ class GlacierJob(GlacierRun, Job):
             return write_diagnostic(prepared, outcome)
         assert isinstance(outcome, GlacierOutcome)
         return write_glacier(prepared, outcome)
+
+
+def check_sizes(run: GlacierJob) -> None:
+    """Refuse (InputError), before anything is allocated, a run of more time steps or snapshots
+    than ``stepping.MAX_STEPS`` and a Blatter–Pattyn lattice of ``--layers`` that does not fit in
+    memory. Values out of their ranges are left to ``plan_glacier``'s checks."""
+    span = duration(run)
+    if not run.diagnostic and span is not None and math.isfinite(span) and span > 0:
+        if math.isfinite(run.dt) and run.dt > 0:
+            check_step_count(span / run.dt, f"a run of {span:g} y in steps of --dt {run.dt:g} y")
+        every = run.snapshot_every
+        if every is not None and math.isfinite(every) and every > 0:
+            check_step_count(span / every, f"--snapshot-every {every:g} y over {span:g} y",
+                             "give a larger --snapshot-every")
+    if run.iceflow == "blatter" and run.layers >= 1:
+        header = read_header(run.source, band=run.band)
+        levels = float(run.layers) + 1.0
+        check_fits(levels * header.cells * BLATTER_BYTES_PER_LEVEL_CELL,
+                   f"the ice-flow lattice of --layers {run.layers:,} on {header.size_text()}",
+                   "give fewer --layers (the default is 10)")
 
 
 @dataclass

@@ -15,10 +15,17 @@ from unerode_cli.io.rasters import read_terrain
 from unerode_cli.jobs.hypsometry.options import OPTIONS
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
+from unerode_cli.run.memory import check_fits
 from unerode_cli.run.outputs import check_png
 from unerode_cli.viz.hypsometry_plot import save_hypsometry_plot
 
 CSV_COLUMNS = ["dem", "bin", "lower", "upper", "centre", "area_fraction", "area_above_fraction"]
+#: Peak bytes per bin and DEM: the histogram's arrays (counts, edges in metres and normalised,
+#: centres, fractions, area above: about 8 float64 values).
+BYTES_PER_BIN = 64
+#: Peak bytes per row of the CSV (one per DEM and bin) while it is built: a dict of seven
+#: values and their text.
+BYTES_PER_CSV_ROW = 1200
 
 
 @declared("hypsometry", OPTIONS)
@@ -27,7 +34,11 @@ class HypsometryJob(Job):
     ``normalise``: max, range or none), into ``csv`` and ``plot`` when given."""
 
     def plan(self, outputs: OutputPlan) -> list[tuple[Path, np.ndarray]]:
-        """Clear the CSV and the plot, then read the elevations (m) of each DEM."""
+        """Clear the CSV and the plot, estimate the memory of ``bins`` bins (refused when it does
+        not fit), then read the elevations (m) of each DEM."""
+        per_bin = BYTES_PER_BIN + (BYTES_PER_CSV_ROW if self.csv is not None else 0)
+        check_fits(float(self.bins) * len(self.dems) * per_bin,
+                   f"a hypsometry of {self.bins:,} bins", "give fewer --bins (the default is 50)")
         for dem in self.dems:
             outputs.read(dem)
         if self.csv is not None:

@@ -11,11 +11,12 @@ from pyproj import CRS
 
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.provenance import history
-from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.info.options import OPTIONS
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
+from unerode_cli.run.memory import check_read
 
 
 @declared("info", OPTIONS)
@@ -23,7 +24,9 @@ class InfoJob(Job):
     """Describe the heightfield ``dem``; writes no file, prints the description (``progress.data``)."""
 
     def plan(self, outputs: OutputPlan) -> Terrain:
+        """Read the DEM, once its header says that its cells fit in memory (refused if not)."""
         outputs.read(self.dem)
+        check_read(read_header(self.dem, band=self.band))
         return read_terrain(self.dem, band=self.band, channel=self.channel)
 
     def run(self, planned: Terrain, progress: Progress) -> None:

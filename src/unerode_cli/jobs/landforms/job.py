@@ -23,8 +23,13 @@ from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.landforms.options import OPTIONS
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
+from unerode_cli.run.memory import check_fits
 from unerode_cli.run.outputs import check_png
 from unerode_cli.viz.landforms_plot import JunctionMark, SectionCurve, save_landforms_plot
+
+#: Peak bytes per sample of one cross-section (positions along it, rows, columns, elevations,
+#: the valley window and the interpolation's temporaries: about ten float64 values).
+BYTES_PER_SECTION_SAMPLE = 80
 
 JSON_NAME = "landforms.json"
 PNG_NAME = "landforms.png"
@@ -88,6 +93,7 @@ class LandformsJob(Job):
             outlets = outlet_mask(terrain.grid, self.outlets)
         except ValueError as exc:
             raise InputError(f"{self.dem}: {exc}.") from None
+        check_sections(self.spacing, self.half_width, terrain)
         return PlannedLandforms(terrain, before, outlets)
 
     def run(self, planned: PlannedLandforms,
@@ -109,6 +115,21 @@ class LandformsJob(Job):
         planned, measured = result
         write_report(self, planned.terrain, measured)
         return f"report written to {self.out}/"
+
+
+def check_sections(spacing: float, half_width: float, terrain: Terrain) -> None:
+    """Refuse (InputError) cross-sections closer than one cell of ``terrain`` (``spacing``, m:
+    they would sample the same cells again, and their number grows without bound), and a
+    ``half_width`` (m) whose samples, one per cell size, do not fit in memory."""
+    step = min(terrain.dx, terrain.dy)
+    if spacing < step:
+        raise InputError(f"--spacing {spacing:g} m is finer than the DEM's cells ({step:g} m), so its "
+                         f"cross-sections would sample the same cells again; give at least {step:g} m.")
+    samples = 2.0 * (half_width // step) + 1.0
+    check_fits(samples * BYTES_PER_SECTION_SAMPLE,
+               f"a cross-section of --half-width {half_width:g} m sampled every {step:g} m "
+               f"({samples:.3g} samples)",
+               "give a smaller --half-width (the valley's width is enough)")
 
 
 def check_folder(folder: Path) -> None:

@@ -14,6 +14,9 @@ from unerode_cli.io.mesh_files import mesh_format
 from unerode_cli.io.voxel_files import VOXEL_SUFFIX, voxel_file_layout
 from unerode_cli.jobs.particle_erode import parsers
 from unerode_cli.particles import IMPLICIT_REPRESENTATIONS, PER_IMPACT, VOXEL_REPRESENTATIONS, Preset
+from unerode_cli.particles.simulate import BATCH
+from unerode_cli.run.memory import check_fits
+from unerode_cli.run.stepping import check_step_count
 from unerode_cli.volume.mesh import MeshExtraMissing, marching_cubes_function
 
 #: The terrains impacts can alter as they happen (``Terrain.live_state``).
@@ -22,6 +25,9 @@ PER_IMPACT_REPRESENTATIONS = ("heightfield", "density", "binary")
 VOXEL_OPTIONS = (("voxel_size", "--voxel-size"), ("depth", "--depth"), ("headroom", "--headroom"),
                  ("voxels", "--voxels"), ("volume_out", "--volume-out"), ("mesh", "--mesh"),
                  ("hits_per_voxel", "--hits-per-voxel"), ("hits_threshold", "--hits-threshold"))
+#: Bytes a run keeps per batch of ``particles.simulate.BATCH`` particles and per iteration (each
+#: batch's bounds and budget sums, as Python lists of numbers), besides the fixed event buffers.
+BYTES_PER_BATCH = 400
 #: Options of voxels that an implicit terrain (one material, no hit counts) does not take.
 NOT_IMPLICIT = (("voxels", "--voxels"), ("hits_per_voxel", "--hits-per-voxel"),
                 ("hits_threshold", "--hits-threshold"), ("materials", "--materials"),
@@ -131,3 +137,11 @@ def check_counts(job: Any) -> None:
         raise InputError(f"--spread must be a distance ≥ 0 m, got {job.spread}.")
     with bad_input():
         parsers.check_sources(job.sources or ())
+    if job.iterations is not None:
+        check_step_count(job.iterations, "--iterations",
+                         "give fewer --iterations (split a long run with --max-steps and --resume)")
+    if job.particles is not None:
+        batches = -(-job.particles // BATCH)
+        check_fits(float(batches) * ((job.iterations or 1) + 1) * BYTES_PER_BATCH,
+                   f"--particles {job.particles:,} per iteration ({batches:,} batches of {BATCH:,})",
+                   "give fewer --particles per iteration (and more --iterations)")

@@ -30,14 +30,17 @@ The iterations run through the shared stepping loop (``run.stepping``), one step
 state (the terrain's arrays, the budget sums and counts, the sampled paths) is saved to
 ``.OUT.checkpoint.npz`` beside OUT. After ``--max-steps`` iterations of an invocation, or when
 ``Progress.cancelled`` says so after an iteration, the run stops with a checkpoint and writes
-nothing else; ``--resume`` continues it, bit for bit the run never stopped (a particle's random
-numbers come from its own stream keyed by seed, iteration and index). A finished run removes
-its checkpoint.
+nothing else; a Ctrl-C stops it before the next batch of particles (``interrupts``: never inside
+numba's dispatcher), keeping the checkpoint written last. ``--resume`` continues a stopped run, bit
+for bit the run never stopped (a particle's random numbers come from its own stream keyed by
+seed, iteration and index). A finished run removes its checkpoint.
 """
 
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -51,6 +54,7 @@ from unerode_cli.io.paths import OutputPlan, check_output
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.particle_erode import checks, kinds, parsers, terrains, writing
+from unerode_cli.jobs.particle_erode.interrupts import deferred_interrupt, interrupt_cause
 from unerode_cli.jobs.particle_erode.options import OPTIONS
 from unerode_cli.particles import (
     IMPLICIT_REPRESENTATIONS,
@@ -79,14 +83,31 @@ class ParticleJob(Job):
     kinds of ``kinds``). Units are in the declarations (``options``)."""
 
     def plan(self, outputs: OutputPlan) -> PreparedParticleJob:
-        return plan(self, outputs)
+        with _interrupts_said_as_such():
+            return plan(self, outputs)
 
     def run(self, planned: PreparedParticleJob, progress: Progress) -> tuple[PreparedParticleJob,
                                                                                ParticleResult]:
-        return planned, run_particles(planned, progress)
+        with _interrupts_said_as_such(), deferred_interrupt() as deferred:
+            result = run_particles(planned, progress, deferred.check)
+            deferred.check()
+        return planned, result
 
     def write(self, result: tuple[PreparedParticleJob, ParticleResult], outputs: OutputPlan) -> str:
-        return writing.write_all(*result)
+        with _interrupts_said_as_such():
+            return writing.write_all(*result)
+
+
+@contextlib.contextmanager
+def _interrupts_said_as_such() -> Iterator[None]:
+    """Re-raise as ``KeyboardInterrupt`` an exception that a Ctrl-C inside numba's dispatcher
+    turned into another (``interrupts.interrupt_cause``)."""
+    try:
+        yield
+    except Exception as exc:
+        if interrupt_cause(exc):
+            raise KeyboardInterrupt from None
+        raise
 
 
 @dataclass
@@ -235,12 +256,13 @@ class ParticleSteps:
     """The iterations of a run as the stepping loop drives them (``run.stepping.Stepper``):
     ``ParticleIterations``' state, and the wall time (s) of the invocations before this one."""
 
-    def __init__(self, prepared: PreparedParticleJob) -> None:
+    def __init__(self, prepared: PreparedParticleJob,
+                 between_batches: Callable[[], None] | None = None) -> None:
         job = prepared.job
         self.iterations = ParticleIterations(
             prepared.terrain, prepared.kinds, iterations=prepared.iterations, seed=job.seed,
             sea_level=job.sea_level, paths=job.path_count if job.paths is not None else 0,
-            path_stride=job.path_stride, apply=job.apply)
+            path_stride=job.path_stride, apply=job.apply, between_batches=between_batches)
         self.seconds_before = 0.0
         self.start = time.perf_counter()
 
@@ -260,24 +282,26 @@ class ParticleSteps:
         self.seconds_before = float(state["wall_time_s"])
 
 
-def run_particles(prepared: PreparedParticleJob, progress: Progress) -> ParticleResult:
+def run_particles(prepared: PreparedParticleJob, progress: Progress,
+                  between_batches: Callable[[], None] | None = None) -> ParticleResult:
     """The iterations of the run, one step each of the shared stepping loop (checkpoints,
     resume, --max-steps, cancel); the result is checked for a runaway surface and its
-    statistics are computed."""
+    statistics are computed. ``between_batches`` is called before each batch of particles
+    (``ParticleIterations``): it raises ``KeyboardInterrupt`` after a Ctrl-C."""
     import numba
 
     job, surface = prepared.job, prepared.surface
+    guard = DivergenceGuard(surface.elevation, hint="lower the particle count or the erosion rates")
     for note in prepared.notes:
         progress.note(note)
     if job.threads is not None:
         numba.set_num_threads(min(job.threads, numba.config.NUMBA_NUM_THREADS))
-    steps = ParticleSteps(prepared)
+    steps = ParticleSteps(prepared, between_batches)
     stepped = step_through(steps, prepared.iterations, progress, job.COMMAND, prepared.checkpoints,
                            job.max_steps)
     result = steps.iterations.result()
     seconds = steps.seconds()
     progress.finish()
-    DivergenceGuard(surface.elevation, hint="lower the particle count or the erosion rates").check(
-        result.elevation, 0.0, f"after {result.iterations} iterations")
+    guard.check(result.elevation, 0.0, f"after {result.iterations} iterations")
     return ParticleResult(result, seconds, writing.statistics(result, surface, seconds, prepared.terrain),
                           stepped)

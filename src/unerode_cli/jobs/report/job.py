@@ -3,12 +3,12 @@ sections of :mod:`.sections`), or of one climate-run (``climate-run --report``).
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 from unerode_cli import __version__
 from unerode_cli.errors import InputError
 from unerode_cli.io.paths import OutputPlan
+from unerode_cli.io.provenance import record_time
 from unerode_cli.io.report_files import write_html
 from unerode_cli.jobs.report.options import OPTIONS, REPORT_NAME
 from unerode_cli.jobs.report.sections import Source, build_sections, find_sources
@@ -59,7 +59,7 @@ class ReportJob(Job):
     def write(self, result: list[Section], outputs: OutputPlan) -> str:
         """Render and write the page (atomically); the summary names it and its size."""
         where = self.climate_run if self.climate_run is not None else self.run_dir
-        subtitle = f"{where.resolve()} — unerode-cli {__version__}, {time.strftime('%Y-%m-%d %H:%M')}"
+        subtitle = f"{where.resolve()} — unerode-cli {__version__}, {record_time()[:16].replace('T', ' ')}"
         text = render(f"unerode-cli report: {where.name}", subtitle, result)
         write_html(self.page, text)
         return f"report: wrote {self.page} ({len(result)} section(s), {len(text.encode()) / 1e3:.0f} kB)"

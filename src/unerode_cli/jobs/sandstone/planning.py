@@ -121,7 +121,7 @@ def clear_outputs(job: SandstoneJob, paths: dict[str, Path], outputs: OutputPlan
     every = job.snapshot_every
     snapshots = [snapshot_path(job, frame) for frame in range(every, job.frames + 1, every)] if every else []
     for path in [*paths.values(), *snapshots]:
-        outputs.check_output(path, True)
+        outputs.check_output(path, True, again=path == job.mesh)   # the mesh was cleared first, in plan()
 
 
 def simulation_params(job: SandstoneJob, source: Source) -> SimulationParams:

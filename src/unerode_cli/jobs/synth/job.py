@@ -9,14 +9,23 @@ from affine import Affine
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.cellsize import CellSize, cell_size_metres
+from unerode_cli.io.gdal_io import write_bytes_per_cell
 from unerode_cli.io.georef import centred_transform, parse_crs
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.synth.options import OPTIONS
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
+from unerode_cli.run.memory import check_fits
 from unerode_cli.run.outputs import Outputs, save
 from unerode_cli.synthetic import synthesize
+
+#: Peak bytes per cell of making the elevations (``synthetic.synthesize``: the spectrum, its
+#: inverse transform and, for a mountain range, the ridges and bands), measured with tracemalloc
+#: (32 and 70) and rounded up; then the elevations kept while written, and a preview's hillshade.
+SYNTH_BYTES_PER_CELL = {"fractal": 40, "mountain": 80}
+KEPT_BYTES_PER_CELL = 8
+PREVIEW_BYTES_PER_CELL = 48
 
 
 @dataclass
@@ -45,6 +54,11 @@ class SynthJob(Job):
         transform = centred_transform(crs, shape, self.dx, parse_centre(self.centre))
         wkt = crs.to_wkt()
         cell = cell_size_metres(wkt, transform, shape, str(self.output))
+        making = SYNTH_BYTES_PER_CELL.get(self.kind, max(SYNTH_BYTES_PER_CELL.values()))
+        per_cell = (making + KEPT_BYTES_PER_CELL + write_bytes_per_cell(written.options)
+                    + (PREVIEW_BYTES_PER_CELL if self.preview else 0))
+        check_fits(float(self.size) ** 2 * per_cell, f"a {self.size:,} × {self.size:,} {self.kind} DEM",
+                   "give a smaller --size")
         return PlannedSynth(wkt, transform, cell, written)
 
     def run(self, planned: PlannedSynth, progress: Progress) -> tuple[PlannedSynth, np.ndarray]:

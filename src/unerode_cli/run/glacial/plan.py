@@ -197,6 +197,10 @@ def _check_options(run: GlacierRun) -> None:
         raise InputError(f"--dt must be a positive number of years, got {run.dt:g}.")
     if run.snapshot_every is not None and not (math.isfinite(run.snapshot_every) and run.snapshot_every > 0):
         raise InputError(f"--snapshot-every must be a positive number of years, got {run.snapshot_every:g}.")
+    if run.snapshot_every is not None and run.duration is not None and run.snapshot_every > run.duration:
+        raise InputError(f"--snapshot-every {run.snapshot_every:g} years is outside the run, which lasts "
+                         f"{run.duration:g} years (--duration): no snapshot would be written; give a "
+                         "shorter interval.")
     if run.checkpoint_every < 1:
         raise InputError(f"--checkpoint-every must be at least 1 step, got {run.checkpoint_every}.")
     if run.max_steps is not None and run.max_steps < 1:
@@ -310,7 +314,7 @@ def read_ela(text: str, terrain: Terrain) -> coupled.Ela:
     """``--ela``: a number (m), a CSV time table (``time``, ``ela`` columns) or a raster."""
     if Path(text).suffix.lower() == ".csv":
         return read_ela_table(Path(text))
-    return resolve(ELA_SPEC, text, terrain)
+    return resolve(ELA_SPEC, text, terrain, files="a raster or a CSV table")
 
 
 def sliding_coefficient(text: str, terrain: Terrain) -> float | np.ndarray:

@@ -1,0 +1,74 @@
+"""Memory estimates checked before allocating: a job's plan adds up the bytes of the arrays its
+run will hold at once and refuses (InputError, exit code 2) what the machine cannot hold.
+
+The memory available is the kernel's ``MemAvailable`` (``/proc/meminfo``: free memory plus
+what the page cache can give back), or ``os.sysconf``'s free pages where there is no
+``/proc/meminfo``; inside a cgroup (v2) with a memory limit, no more than the limit minus its
+current use. The environment variable ``UNERODE_MEMORY_GIB`` lowers it to that many GiB (a
+share of a machine used by others, or tests).
+
+Importing this module registers :func:`check_fits` with ``io.rasters`` (which may not import
+``run``), so that every ``read_terrain`` is checked against the header's cells before any cell
+is read; jobs add their own estimates (resampled grids, bins, layers, particles) in ``plan()``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+from unerode_cli.errors import InputError
+from unerode_cli.io import rasters
+from unerode_cli.io.system_memory import memory_available
+
+GIB = float(2**30)
+#: Environment variable: at most this many GiB are taken to be available.
+MEMORY_ENV = "UNERODE_MEMORY_GIB"
+
+def gib(nbytes: float) -> str:
+    """``nbytes`` in GiB, for a sentence: "3.2 GiB", "1,490.1 GiB", "7.5e+295 GiB", "0.0012 GiB"."""
+    value = nbytes / GIB
+    return f"{value:,.1f} GiB" if 0.1 <= value < 1e7 or value == 0 else f"{value:.2g} GiB"
+
+
+def available_bytes() -> float:
+    """Bytes a job may allocate now (see the module docstring)."""
+    free = memory_available()
+    cap = os.environ.get(MEMORY_ENV)
+    if cap:
+        try:
+            cap_gib = float(cap)
+        except ValueError:
+            cap_gib = float("nan")
+        if not cap_gib > 0:
+            raise InputError(f"the environment variable {MEMORY_ENV} must be a positive number of GiB, "
+                             f"got '{cap}'.")
+        free = min(free, cap_gib * GIB)
+    return float(free)
+
+
+def check_fits(nbytes: float, what: str, change: str) -> None:
+    """Refuse (InputError) an estimate of ``nbytes`` bytes above the memory available.
+
+    ``what`` names what needs them ("reading dem.tif (200,000 × 200,000 cells)"), ``change``
+    says what to change ("crop it first with convert --crop"); the sentence gives both amounts
+    in GiB."""
+    free = available_bytes()
+    if not nbytes <= free:  # NaN included
+        need = (f"about {gib(nbytes)} of memory" if math.isfinite(nbytes)
+                else "more memory than can be counted")
+        raise InputError(f"{what} needs {need}, more than the {gib(free)} available; {change}.")
+
+
+def check_read(header: rasters.RasterHeader, extra_per_cell: float = 0.0, extra: float = 0.0,
+               change: str = "") -> None:
+    """Refuse reading every cell of ``header``'s raster when that (``read_bytes_per_cell``),
+    plus ``extra_per_cell`` bytes per cell and ``extra`` bytes more, does not fit."""
+    nbytes = float(header.cells) * (header.read_bytes_per_cell + extra_per_cell) + extra
+    check_fits(nbytes, f"reading {header.path} ({header.size_text()})",
+               change or "crop it to the area needed first (convert --crop reads only that window), "
+               "or use a machine with more memory")
+
+
+# every raster read (io.rasters.read_terrain) is checked against the memory available
+rasters.set_memory_check(check_fits)
