@@ -28,7 +28,9 @@ def resolve(spec: ParamSpec, value: str | float, terrain: Terrain,
     else:
         path = Path(str(value))
         if not _exists(path):
-            raise InputError(f"parameter {spec.name} is '{value}', neither a number nor {files} that exists.")
+            flag = f"--{(spec.symbol or spec.name).replace('_', '-')}"
+            raise InputError(f"parameter {spec.name} ({flag}) is '{value}', neither a number nor {files} "
+                             "that exists.")
         layer = load_on_grid(path, terrain, f"parameter {spec.name}")
         valid = ~terrain.nodata_mask
         if not np.isfinite(layer[valid]).all():
