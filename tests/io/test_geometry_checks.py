@@ -6,9 +6,7 @@ sentence, exit 2, before any computation, with no file left."""
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
 import re
 import warnings
 from pathlib import Path
@@ -19,37 +17,16 @@ import rasterio
 from affine import Affine
 from pyproj import CRS
 from tests.conftest import write_geotiff
-from typer.testing import CliRunner
+from tests.refusals import CLASS_NAME, cli, snapshot
 
-from unerode_cli.cli.app import app
 from unerode_cli.errors import InputError
 from unerode_cli.io.cellsize import cell_size_metres
 from unerode_cli.io.georef import centred_transform
 from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.resampling import crop_window, resampled_shape
 
-CLASS_NAME = r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning|Interrupt)\b|Traceback|CPLE_"
 WGS84 = CRS.from_epsg(4326).to_wkt()
 UTM = Affine(30.0, 0.0, 500000.0, 0.0, -30.0, 5000000.0)
-
-
-def cli(folder: Path, *args: object) -> tuple[int, str]:
-    try:
-        runner = CliRunner(mix_stderr=False)      # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    cwd = os.getcwd()
-    os.chdir(folder)
-    try:
-        result = runner.invoke(app, [str(a) for a in args], env={"COLUMNS": "100"})
-    finally:
-        os.chdir(cwd)
-    return result.exit_code, result.stderr
-
-
-def snapshot(folder: Path) -> dict[str, str]:
-    return {str(p.relative_to(folder)): "dir" if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*"))}
 
 
 def assert_refused(folder: Path, *args: object, phrase: str) -> str:

@@ -18,24 +18,12 @@ import numpy as np
 import pytest
 import yaml
 from tests.conftest import write_geotiff
-from typer.testing import CliRunner
+from tests.refusals import cli as run_in
 
 
 def cli(*args: object, cwd: Path) -> tuple[int, str]:
     """Run ``unerode-cli ARGS`` in this process in ``cwd``: (exit code, stderr)."""
-    from unerode_cli.cli.app import app
-
-    try:
-        runner = CliRunner(mix_stderr=False)  # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    before = os.getcwd()
-    os.chdir(cwd)
-    try:
-        result = runner.invoke(app, [str(a) for a in args], env={"COLUMNS": "100"})
-    finally:
-        os.chdir(before)
-    return result.exit_code, result.stderr
+    return run_in(cwd, *args)
 
 
 def files(folder: Path) -> dict[str, bytes]:

@@ -8,7 +8,6 @@ names each file once with the right rerun hint, and no message shows a Python cl
 from __future__ import annotations
 
 import errno
-import hashlib
 import os
 import shutil
 import subprocess
@@ -21,6 +20,7 @@ import numpy as np
 import pytest
 import typer
 from tests.conftest import write_geotiff
+from tests.refusals import CLASS_NAME, cli, snapshot
 from typer.testing import CliRunner
 
 from unerode_cli.cli.app import app
@@ -31,28 +31,6 @@ from unerode_cli.run.declare import Opt, declared, read_files
 from unerode_cli.run.job import Job, Progress, execute
 
 DEAD_PID = 99999999          # above any pid_max: runs nowhere
-CLASS_NAME = r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning|Interrupt)\b|Traceback|CPLE_"
-
-
-def cli(folder: Path, *args: object) -> tuple[int, str]:
-    """Run ``unerode-cli ARGS`` in process in ``folder``: (exit code, stderr)."""
-    try:
-        runner = CliRunner(mix_stderr=False)      # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    cwd = os.getcwd()
-    os.chdir(folder)
-    try:
-        result = runner.invoke(app, [str(a) for a in args], env={"COLUMNS": "100"})
-    finally:
-        os.chdir(cwd)
-    return result.exit_code, result.stderr
-
-
-def snapshot(folder: Path) -> dict[str, str]:
-    """Relative path → sha256 ('dir' for a folder) of everything under ``folder``."""
-    return {str(p.relative_to(folder)): "dir" if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*"))}
 
 
 def assert_one_sentence(stderr: str, phrase: str) -> None:

@@ -6,8 +6,6 @@ size the user gives (a raster's declared cells, --cell-size, --bins, --layers, -
 
 from __future__ import annotations
 
-import hashlib
-import os
 import re
 import time
 from pathlib import Path
@@ -17,37 +15,15 @@ import pytest
 import rasterio
 from affine import Affine
 from tests.conftest import write_geotiff
-from typer.testing import CliRunner
+from tests.refusals import CLASS_NAME, cli, snapshot
 
-from unerode_cli.cli.app import app
 from unerode_cli.errors import InputError
 from unerode_cli.io import rasters
 from unerode_cli.run import memory
 from unerode_cli.run.job import Progress
 from unerode_cli.run.stepping import MAX_STEPS, StepInfo, check_step_count, step_through
 
-CLASS_NAME = r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning|Interrupt)\b|Traceback|CPLE_"
 UTM = Affine(30.0, 0.0, 500000.0, 0.0, -30.0, 5000000.0)
-
-
-def cli(folder: Path, *args: object) -> tuple[int, str]:
-    """Run ``unerode-cli ARGS`` in process in ``folder``: (exit code, stderr)."""
-    try:
-        runner = CliRunner(mix_stderr=False)      # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    cwd = os.getcwd()
-    os.chdir(folder)
-    try:
-        result = runner.invoke(app, [str(a) for a in args], env={"COLUMNS": "100"})
-    finally:
-        os.chdir(cwd)
-    return result.exit_code, result.stderr
-
-
-def snapshot(folder: Path) -> dict[str, str]:
-    return {str(p.relative_to(folder)): "dir" if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*"))}
 
 
 def assert_refused(folder: Path, *args: object, phrase: str, seconds: float = 10.0) -> str:

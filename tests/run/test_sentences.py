@@ -8,7 +8,6 @@ name, and that the folder is left as it was (no output, no temporary)."""
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import re
@@ -23,36 +22,13 @@ import OpenEXR
 import pytest
 from affine import Affine
 from tests.conftest import SAMPLE_DEMS, write_geotiff
-from typer.testing import CliRunner
+from tests.refusals import CLASS_NAME, cli, snapshot
 
-from unerode_cli.cli.app import app
 from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.run.divergence import DivergenceGuard
 from unerode_cli.run.runner import Change, StepApplier
 
-CLASS_NAME = r"\b[A-Z][A-Za-z0-9]*(?:Error|Exception|Warning|Interrupt)\b|Traceback|CPLE_"
 CHRONOLOGY = "age_ka,d18o\n0,3.2\n5,3.5\n10,4.0\n15,4.6\n20,4.9\n25,4.7\n30,4.4\n"
-
-
-def cli(folder: Path, *args: object) -> tuple[int, str]:
-    """Run ``unerode-cli ARGS`` in process in ``folder``: (exit code, stderr)."""
-    try:
-        runner = CliRunner(mix_stderr=False)      # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    cwd = os.getcwd()
-    os.chdir(folder)
-    try:
-        result = runner.invoke(app, [str(a) for a in args], env={"COLUMNS": "100"})
-    finally:
-        os.chdir(cwd)
-    return result.exit_code, result.stderr
-
-
-def snapshot(folder: Path) -> dict[str, str]:
-    """Relative path → sha256 ('dir' for a folder) of everything under ``folder``."""
-    return {str(p.relative_to(folder)): "dir" if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*"))}
 
 
 def assert_one_sentence(stderr: str, phrase: str, absent: str = "") -> None:
