@@ -7,7 +7,6 @@ sentence, exit 2, before any computation, with no file left."""
 from __future__ import annotations
 
 import math
-import re
 import warnings
 from pathlib import Path
 
@@ -17,7 +16,7 @@ import rasterio
 from affine import Affine
 from pyproj import CRS
 from tests.conftest import write_geotiff
-from tests.refusals import CLASS_NAME, cli, snapshot
+from tests.refusals import assert_refused, cli
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.cellsize import cell_size_metres
@@ -27,19 +26,6 @@ from unerode_cli.io.resampling import crop_window, resampled_shape
 
 WGS84 = CRS.from_epsg(4326).to_wkt()
 UTM = Affine(30.0, 0.0, 500000.0, 0.0, -30.0, 5000000.0)
-
-
-def assert_refused(folder: Path, *args: object, phrase: str) -> str:
-    before = snapshot(folder)
-    code, stderr = cli(folder, *args)
-    assert code == 2, stderr
-    lines = [line for line in stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, stderr
-    assert lines[0].startswith("error: ") and lines[0].rstrip().endswith("."), stderr
-    assert not re.search(CLASS_NAME, stderr), stderr
-    assert phrase.lower() in stderr.lower(), stderr
-    assert snapshot(folder) == before
-    return lines[0]
 
 
 @pytest.fixture

@@ -9,12 +9,12 @@ from __future__ import annotations
 import errno
 import os
 import shutil
-import subprocess
 import threading
 from collections import namedtuple
 from pathlib import Path
 
 import pytest
+from tests.refusals import read_only_folder
 
 from unerode_cli.errors import InputError, RunFailure, WriteFailure
 from unerode_cli.io import paths
@@ -35,22 +35,9 @@ def write(plan: OutputPlan, path: Path, content: bytes) -> None:
 
 @pytest.fixture
 def read_only(tmp_path: Path):
-    """A folder this process cannot write: mode 0555, and immutable (``chattr +i``) for root,
-    whom modes do not stop; skipped where neither works."""
-    folder = tmp_path / "ro"
-    folder.mkdir()
-    folder.chmod(0o555)
-    immutable = False
-    if os.access(folder, os.W_OK) and shutil.which("chattr"):
-        immutable = subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode == 0
-    try:
-        if os.access(folder, os.W_OK):
-            pytest.skip("no read-only folder can be made here (root, and chattr +i refused)")
+    """A folder this process cannot write (see :func:`tests.refusals.read_only_folder`)."""
+    with read_only_folder(tmp_path / "ro") as folder:
         yield folder
-    finally:
-        if immutable:
-            subprocess.run(["chattr", "-i", str(folder)], capture_output=True)
-        folder.chmod(0o755)
 
 
 # --- class 1: inputs and outputs -----------------------------------------------------------------

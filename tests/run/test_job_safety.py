@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import errno
 import os
-import shutil
-import subprocess
 import threading
 import time
 from pathlib import Path
@@ -20,7 +18,7 @@ import numpy as np
 import pytest
 import typer
 from tests.conftest import write_geotiff
-from tests.refusals import CLASS_NAME, cli, snapshot
+from tests.refusals import CLASS_NAME, cli, read_only_folder, snapshot
 from typer.testing import CliRunner
 
 from unerode_cli.cli.app import app
@@ -66,22 +64,9 @@ def folder(tmp_path: Path) -> Path:
 
 @pytest.fixture
 def read_only(folder: Path):
-    """``folder/ro``, which this process cannot write (chattr +i for root); skipped where
-    neither mode 0555 nor chattr stops it."""
-    path = folder / "ro"
-    path.mkdir()
-    path.chmod(0o555)
-    immutable = False
-    if os.access(path, os.W_OK) and shutil.which("chattr"):
-        immutable = subprocess.run(["chattr", "+i", str(path)], capture_output=True).returncode == 0
-    try:
-        if os.access(path, os.W_OK):
-            pytest.skip("no read-only folder can be made here")
+    """``folder/ro``, which this process cannot write (see :func:`tests.refusals.read_only_folder`)."""
+    with read_only_folder(folder / "ro") as path:
         yield path
-    finally:
-        if immutable:
-            subprocess.run(["chattr", "-i", str(path)], capture_output=True)
-        path.chmod(0o755)
 
 
 # --- class 1: what a command reads is never one of its outputs -------------------------------

@@ -7,7 +7,6 @@ size the user gives (a raster's declared cells, --cell-size, --bins, --layers, -
 from __future__ import annotations
 
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +14,7 @@ import pytest
 import rasterio
 from affine import Affine
 from tests.conftest import write_geotiff
-from tests.refusals import CLASS_NAME, cli, snapshot
+from tests.refusals import assert_refused, cli
 
 from unerode_cli.errors import InputError
 from unerode_cli.io import rasters
@@ -24,22 +23,6 @@ from unerode_cli.run.job import Progress
 from unerode_cli.run.stepping import MAX_STEPS, StepInfo, check_step_count, step_through
 
 UTM = Affine(30.0, 0.0, 500000.0, 0.0, -30.0, 5000000.0)
-
-
-def assert_refused(folder: Path, *args: object, phrase: str, seconds: float = 10.0) -> str:
-    """Exit 2 at once with one sentence containing ``phrase``; no file changed or added."""
-    before = snapshot(folder)
-    start = time.perf_counter()
-    code, stderr = cli(folder, *args)
-    assert code == 2, stderr
-    assert time.perf_counter() - start < seconds, stderr
-    lines = [line for line in stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, stderr
-    assert lines[0].startswith("error: ") and lines[0].rstrip().endswith("."), stderr
-    assert not re.search(CLASS_NAME, stderr), stderr
-    assert phrase.lower() in stderr.lower(), stderr
-    assert snapshot(folder) == before
-    return lines[0]
 
 
 @pytest.fixture
