@@ -352,3 +352,22 @@ def test_a_python_warning_is_shown_without_its_class(capsys) -> None:
         warnings.warn("invalid value encountered in divide", RuntimeWarning, stacklevel=1)
     stderr = capsys.readouterr().err
     assert stderr == "warning: invalid value encountered in divide.\n"
+
+
+def test_a_ctrl_c_said_as_another_error_inside_a_kernel_call_is_an_interrupt(tmp_path: Path) -> None:
+    """numba's dispatcher reports a SIGINT that lands in its C code as a SystemError caused by
+    the KeyboardInterrupt: any job's executor raises it as the interrupt (exit 130 on the
+    command line), and no output or temporary is left."""
+
+    class InterruptedInKernel(WriterJob):
+        def run(self, planned: Any, progress: Progress) -> Any:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as inner:
+                raise SystemError("CPUDispatcher(<function kernel>) returned a result with an "
+                                  "exception set") from inner
+
+    with pytest.raises(typer.Exit) as ended, reported_errors(0) as plan:
+        execute(InterruptedInKernel(output=tmp_path / "out.txt"), outputs=plan)
+    assert ended.value.exit_code == 130
+    assert list(tmp_path.iterdir()) == []

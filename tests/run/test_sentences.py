@@ -259,7 +259,7 @@ def test_a_deferred_interrupt_raises_between_batches_and_a_second_at_once() -> N
 
 
 def test_an_exception_caused_by_an_interrupt_is_recognised() -> None:
-    from unerode_cli.jobs.particle_erode.interrupts import interrupt_cause
+    from unerode_cli.run.unexpected import interrupt_cause
 
     try:
         try:

@@ -33,6 +33,7 @@ from unerode_cli.errors import RunFailure, WriteFailure
 from unerode_cli.io.paths import OutputPlan, os_error_reason
 from unerode_cli.run import memory as _memory  # noqa: F401 - registers the memory check of every raster read
 from unerode_cli.run.declare import Opt, command_line, outputs_of, provenance, read_files, resume_flag
+from unerode_cli.run.unexpected import interrupt_cause
 
 
 class Summary(str):
@@ -157,7 +158,8 @@ def execute(job: Job, progress: Progress | None = None, outputs: OutputPlan | No
     (InputError). A :class:`RunFailure` removes the files written so far (recorded in
     ``outputs.removed``) before it propagates, except a :class:`WriteFailure` (an output that
     could not be written; an OSError of ``write`` becomes one), which keeps them; any
-    exception leaves no temporary file."""
+    exception leaves no temporary file. An exception that a Ctrl-C caused (numba's dispatcher
+    reports one as a SystemError) is raised as the ``KeyboardInterrupt`` it is."""
     progress = progress or Progress()
     outputs = outputs or OutputPlan()
     with outputs.active():
@@ -179,6 +181,10 @@ def execute(job: Job, progress: Progress | None = None, outputs: OutputPlan | No
             raise
         except RunFailure:
             outputs.discard_written()
+            raise
+        except Exception as exc:
+            if interrupt_cause(exc):    # Ctrl-C inside a compiled kernel's call, said as another error
+                raise KeyboardInterrupt from None
             raise
         finally:
             progress.finish()

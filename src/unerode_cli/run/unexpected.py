@@ -1,5 +1,6 @@
 """One sentence for an exception no check foresaw, without Python or GDAL class names: what the
-command line, a pipeline step and an ensemble member say of it."""
+command line, a pipeline step and an ensemble member say of it; and whether an exception was a
+Ctrl-C in disguise."""
 
 from __future__ import annotations
 
@@ -32,3 +33,18 @@ def unexpected(exc: BaseException) -> str:
 def without_class_names(text: str) -> str:
     """``text`` with every Python exception class name (and GDAL error class) taken out."""
     return re.sub(r"\s{2,}", " ", _CLASS_NAME.sub("", text)).strip()
+
+
+def interrupt_cause(exc: BaseException) -> bool:
+    """Whether ``exc`` or an exception in its chain of causes and contexts is a
+    ``KeyboardInterrupt``: Python raises it at the next bytecode after SIGINT, and when that
+    bytecode is inside numba's dispatcher (typing a kernel's arguments, loading a kernel) numba
+    reports a ``SystemError`` caused by it instead."""
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        if isinstance(current, KeyboardInterrupt):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False

@@ -9,9 +9,9 @@ that the run failed unexpectedly (exit code 1) rather than that it was interrupt
 :func:`deferred_interrupt` replaces the SIGINT handler while the particles run with one that
 only records the signal; the run asks :func:`Deferred.check` between batches of kernels, which
 raises ``KeyboardInterrupt`` there, in plain Python code. A second Ctrl-C raises at once (the
-user insists). :func:`interrupt_cause` recognises an exception whose cause or context is a
-``KeyboardInterrupt`` (the path that a second Ctrl-C, or a SIGINT outside the deferred part,
-may still take), so that the job re-raises it as the interrupt it is.
+user insists). An exception caused by a Ctrl-C that still escapes (a second Ctrl-C, or a SIGINT
+outside the deferred part) is raised as the interrupt it is by the executor
+(:func:`unerode_cli.run.unexpected.interrupt_cause`).
 """
 
 from __future__ import annotations
@@ -21,6 +21,10 @@ import signal
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+
+from unerode_cli.run.unexpected import interrupt_cause
+
+__all__ = ["Deferred", "deferred_interrupt", "interrupt_cause"]
 
 
 @dataclass
@@ -56,16 +60,3 @@ def deferred_interrupt() -> Iterator[Deferred]:
         yield deferred
     finally:
         signal.signal(signal.SIGINT, previous)
-
-
-def interrupt_cause(exc: BaseException) -> bool:
-    """Whether ``exc`` or an exception in its chain of causes and contexts is a
-    ``KeyboardInterrupt``."""
-    seen: set[int] = set()
-    current: BaseException | None = exc
-    while current is not None and id(current) not in seen:
-        if isinstance(current, KeyboardInterrupt):
-            return True
-        seen.add(id(current))
-        current = current.__cause__ or current.__context__
-    return False

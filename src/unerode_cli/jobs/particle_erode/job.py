@@ -38,9 +38,8 @@ seed, iteration and index). A finished run removes its checkpoint.
 
 from __future__ import annotations
 
-import contextlib
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,7 +53,7 @@ from unerode_cli.io.paths import OutputPlan, check_output
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.particle_erode import checks, kinds, parsers, terrains, writing
-from unerode_cli.jobs.particle_erode.interrupts import deferred_interrupt, interrupt_cause
+from unerode_cli.jobs.particle_erode.interrupts import deferred_interrupt
 from unerode_cli.jobs.particle_erode.options import OPTIONS
 from unerode_cli.particles import (
     IMPLICIT_REPRESENTATIONS,
@@ -83,31 +82,17 @@ class ParticleJob(Job):
     kinds of ``kinds``). Units are in the declarations (``options``)."""
 
     def plan(self, outputs: OutputPlan) -> PreparedParticleJob:
-        with _interrupts_said_as_such():
-            return plan(self, outputs)
+        return plan(self, outputs)
 
     def run(self, planned: PreparedParticleJob, progress: Progress) -> tuple[PreparedParticleJob,
                                                                                ParticleResult]:
-        with _interrupts_said_as_such(), deferred_interrupt() as deferred:
+        with deferred_interrupt() as deferred:
             result = run_particles(planned, progress, deferred.check)
             deferred.check()
         return planned, result
 
     def write(self, result: tuple[PreparedParticleJob, ParticleResult], outputs: OutputPlan) -> str:
-        with _interrupts_said_as_such():
-            return writing.write_all(*result)
-
-
-@contextlib.contextmanager
-def _interrupts_said_as_such() -> Iterator[None]:
-    """Re-raise as ``KeyboardInterrupt`` an exception that a Ctrl-C inside numba's dispatcher
-    turned into another (``interrupts.interrupt_cause``)."""
-    try:
-        yield
-    except Exception as exc:
-        if interrupt_cause(exc):
-            raise KeyboardInterrupt from None
-        raise
+        return writing.write_all(*result)
 
 
 @dataclass
