@@ -838,7 +838,7 @@ def erode_more_cases() -> list[Case]:
              phrase="input"),
         Case("erode-unknown-option", C0, ("erode", "in.tif", "out.tif", "--bogus"), (IN,)),
         Case("erode-thermal-spike-diverges", C4,
-             ("erode", "spike.tif", "out.tif", "--process", "thermal", *two),
+             ("erode", "spike.tif", "out.tif", "--process", "thermal", "--force", *two),
              (dem("spike.tif", values="spike", dtype="float64"),), exits=(1,), phrase="diverged"),
         Case("erode-thermal-extreme-elevations", C4,
              ("erode", "x.tif", "out.tif", "--process", "thermal", *two),

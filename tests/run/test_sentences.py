@@ -181,14 +181,14 @@ def test_elevations_whose_relief_overflows_are_refused_before_the_first_step(fol
     z = np.zeros((24, 24))
     z[::2, ::2], z[1::2, 1::2] = 1e308, -1e308
     write_geotiff(folder / "x.tif", z)
-    assert_fails(folder, ("erode", "x.tif", "out.tif", "--process", "thermal", "--steps", "2"), 2,
+    assert_fails(folder, ("erode", "x.tif", "out.tif", "--process", "thermal", "--steps", "2", "--force"), 2,
                  "a relief too large to compute with")
     with pytest.raises(InputError, match="relief too large"):
         DivergenceGuard(z)
 
 
 @pytest.mark.parametrize("command", [("particle-erode", "--particles", "5", "--iterations", "1"),
-                                     ("glaciate", "--ela", "150", "--duration", "20")])
+                                     ("glaciate", "--ela", "150", "--duration", "20", "--force")])
 def test_other_stepping_commands_refuse_an_overflowing_relief(folder: Path, command: tuple[str, ...]) -> None:
     z = np.zeros((24, 24))
     z[::2, ::2], z[1::2, 1::2] = 1e308, -1e308
@@ -215,8 +215,8 @@ def test_a_thermal_run_that_becomes_non_finite_is_the_divergence_sentence(folder
     z = ramp()
     z[12, 12] = 1e300
     write_geotiff(folder / "spike.tif", z)
-    assert_fails(folder, ("erode", "spike.tif", "out.tif", "--process", "thermal", "--steps", "2"), 1,
-                 "the run diverged in step 1")
+    assert_fails(folder, ("erode", "spike.tif", "out.tif", "--process", "thermal", "--steps", "2", "--force"),
+                 1, "the run diverged in step 1")
 
 
 # --- snapshots outside the run -----------------------------------------------------------------

@@ -54,6 +54,9 @@ PREVIEW = Opt("preview", Path, None, "Also write a hillshade preview PNG of the 
               panel=OUTPUT_PANEL, record=False)
 SEED = Opt("seed", int, 0, "Random seed (recorded in the output's history).")
 
+FORCE = Opt("force", bool, False, "Run a DEM whose elevations cannot be metres of a real terrain "
+            "(beyond -11 km … +9 km) as it is.", kind="flag", record=False)
+
 #: The raster-output options of most jobs: format, creation options, overwrite and preview.
 RASTER_OUTPUT = (DTYPE, COG, CREATION_OPTIONS, OVERWRITE, PREVIEW)
 #: Reading a band of a multi-band raster or a channel of an EXR.

@@ -95,7 +95,8 @@ def plan_glacial(job: ClimateJob, outputs: OutputPlan, progress: Progress) -> Pr
         timeline=timeline_path(job.output), ela_chronology=job.chronology, ela_kind=job.chronology_kind,
         ela_present=job.ela_present, ela_glacial=job.ela_glacial, from_ka=job.from_ka, to_ka=job.to_ka,
         dtype=job.dtype, cog=job.cog, co=job.co, overwrite=job.overwrite, preview=job.preview,
-        checkpoint_every=job.checkpoint_every, resume=job.resume, max_steps=job.max_steps, **values)
+        force=job.force, checkpoint_every=job.checkpoint_every, resume=job.resume, max_steps=job.max_steps,
+        **values)
     sea_level = sea.since(job.from_ka) if job.sea_outlets else None
     return plan_glacier(run, outputs, sea_level, job.COMMAND, context)
 

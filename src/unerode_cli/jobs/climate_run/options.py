@@ -10,6 +10,7 @@ from unerode_cli.run.common_options import (
     COAST,
     DIRICHLET,
     EDGE_BASE,
+    FORCE,
     METRES,
     OUTLETS,
     OUTPUT,
@@ -74,6 +75,7 @@ OPTIONS = (
     OUTLETS,
     DIRICHLET,
     INFLOW,
+    FORCE,
     Opt("sea_outlets", bool, True, "Cells at or below the current sea level are outlets, and boundary nodes "
         "at or below the sea level of --from follow sea level.", kind="flag", off_flag="--no-sea-outlets",
         panel=BOUNDARY_PANEL),

@@ -47,6 +47,7 @@ from unerode_cli.run.nesting import Nesting, nest
 from unerode_cli.run.outputs import Outputs, check_png, check_raster
 from unerode_cli.run.parameter_maps import resolve
 from unerode_cli.run.registry import REGISTRY, given_values, inflow_history_for, parse_process_list
+from unerode_cli.run.terrain_sanity import check_metres
 
 if TYPE_CHECKING:
     from unerode_cli.jobs.climate_run.job import ClimateJob
@@ -98,6 +99,7 @@ def plan(job: ClimateJob, plan_outputs: OutputPlan | None = None, progress: Prog
     _check_outputs(job, names, steps, outputs)
     terrain = read_terrain(job.source)
     terrain.check_valid(job.source)
+    check_metres(terrain, job.source, job.force)
     outputs.check_source(terrain, job.source)
     chronology, sea = read_sea_level(job, on_note)
     run_forcing = forcing(job, steps, sea)

@@ -50,6 +50,7 @@ from unerode_cli.run.stepping import (
     finish_checkpoints,
     step_through,
 )
+from unerode_cli.run.terrain_sanity import check_metres
 
 
 @declared("erode", OPTIONS)
@@ -216,6 +217,7 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
         check_png(change_preview_path(job.change_map), replace, (job.source,))
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
     terrain.check_valid(job.source)
+    check_metres(terrain, job.source, job.force)
     outputs.check_source(terrain, job.source)
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
     given = given_values(job.params, job.parameter_values(), names)

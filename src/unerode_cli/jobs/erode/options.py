@@ -8,6 +8,7 @@ from unerode_cli.processes import thermal
 from unerode_cli.run.common_options import (
     CHECKPOINTS,
     DIRICHLET,
+    FORCE,
     OUTLETS,
     OUTPUT,
     POSITIVE_YEARS,
@@ -53,6 +54,7 @@ OPTIONS = (
     DIRICHLET,
     INFLOW,
     *READING,
+    FORCE,
     *RASTER_OUTPUT,
     *CHECKPOINTS,
 ) + parameter_options(PARAMETER_PANELS)

@@ -14,6 +14,7 @@ from pathlib import Path
 from unerode_cli.glacier import blatter, coupled, cycle, erosion, massbalance
 from unerode_cli.run.common_options import (
     CHECKPOINTS,
+    FORCE,
     POSITIVE_YEARS,
     RASTER_OUTPUT,
     READING,
@@ -145,7 +146,7 @@ SIDE_OUTPUTS = (
 
 OPTIONS = (
     SOURCE, OUTPUT, ELA, DURATION, DT, *ICE_FLOW, *TRANSPORT, *ICE_FREE_GROUND, *ELA_CHRONOLOGY,
-    *DIAGNOSTIC, *SIDE_OUTPUTS, *READING, *RASTER_OUTPUT,
+    *DIAGNOSTIC, *SIDE_OUTPUTS, *READING, FORCE, *RASTER_OUTPUT,
     with_default(CHECKPOINTS[0], 100), *CHECKPOINTS[1:],
 ) + parameter_options(PARAMETER_PANELS)
 

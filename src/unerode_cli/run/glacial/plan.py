@@ -47,6 +47,7 @@ from unerode_cli.run.glacial.options import (
 )
 from unerode_cli.run.outputs import Outputs, check_png, check_previewable, check_raster, snapshot_path
 from unerode_cli.run.parameter_maps import resolve
+from unerode_cli.run.terrain_sanity import check_metres
 
 #: The diagnostic solve: blatter.solve's own convergence threshold, and a generous iteration cap.
 DIAGNOSTIC_RTOL = 1e-5
@@ -95,6 +96,7 @@ def plan_glacier(run: GlacierRun, outputs: OutputPlan, sea_level: Callable[[floa
         check_checkpoint(run.output, run.resume, run.overwrite, (run.source,))
     terrain = read_terrain(run.source, band=run.band, channel=run.channel)
     terrain.check_valid(run.source)
+    check_metres(terrain, run.source, run.force)
     if run.preview is not None:
         check_previewable(terrain, run.source)
     thickness = read_thickness(run.ice_thickness, terrain)
