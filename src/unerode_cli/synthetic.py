@@ -50,14 +50,49 @@ def mountain(shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
     return land + sea_floor - 0.002 * (y > coast)
 
 
-def synthesize(kind: str, shape: tuple[int, int], relief: float, seed: int) -> np.ndarray:
-    """Elevations (m) of a synthetic terrain of ``kind`` with ``relief`` metres of land relief."""
+#: Steepest median slope (degrees) of a synthetic terrain's land when no relief is given: about
+#: that of real mountain ranges (the DEMs of ``../shared/data``: Grindelwald 26.9°, Ötztal 27.8°,
+#: Mandakini 27.7°, Patagonia 25.8°, Big Tujunga 22.1°, from central differences).
+MEDIAN_SLOPE_DEG = 30.0
+#: Land relief (m) when no relief is given and the extent allows it at ``MEDIAN_SLOPE_DEG``.
+DEFAULT_RELIEF_M = 2000.0
+
+
+def shape_of(kind: str, shape: tuple[int, int], seed: int) -> np.ndarray:
+    """Relative elevations of a synthetic terrain of ``kind`` (land relief 1: the fractal in
+    [0, 1], the mountain range about −0.1 … 1); multiplied by a relief in metres, the terrain."""
     rng = np.random.default_rng(seed)
     if kind == "fractal":
-        return relief * fractal(shape, rng)
+        return fractal(shape, rng)
     if kind == "mountain":
-        return relief * mountain(shape, rng)
+        return mountain(shape, rng)
     raise ValueError(f"unknown synthetic terrain kind {kind!r}; choose one of {', '.join(KINDS)}")
+
+
+def synthesize(kind: str, shape: tuple[int, int], relief: float, seed: int) -> np.ndarray:
+    """Elevations (m) of a synthetic terrain of ``kind`` with ``relief`` metres of land relief."""
+    return relief * shape_of(kind, shape, seed)
+
+
+def relief_for_extent(relative: np.ndarray, dx: float, dy: float,
+                      most: float = DEFAULT_RELIEF_M, median_slope_deg: float = MEDIAN_SLOPE_DEG) -> float:
+    """The land relief (m) of ``relative`` (from :func:`shape_of`) on cells of ``dx`` × ``dy``
+    metres: ``most``, or less where ``most`` would make the median slope of the land (cells
+    above 0) steeper than ``median_slope_deg``.
+
+    The slope is the central-difference gradient; a relief r scales it by r, so the relief of
+    a median slope α is tan α ÷ (median gradient of ``relative`` per metre). A fractal's
+    normalised gradient per cell falls as the grid grows (≈ n^−0.7 from 32 to 1024 cells), so a
+    fixed relief is gentle on a large grid and a cliff on a small one (2000 m on 32 × 32 cells of
+    30 m: a median of 78°)."""
+    if min(relative.shape) < 2:
+        return most
+    gy, gx = np.gradient(relative, dy, dx)
+    gradient = np.hypot(gx, gy, out=gx)[relative > 0.0]
+    median = float(np.median(gradient)) if gradient.size else 0.0
+    if not median > 0.0:
+        return most
+    return float(min(most, np.tan(np.radians(median_slope_deg)) / median))
 
 
 def _unit(field: np.ndarray) -> np.ndarray:

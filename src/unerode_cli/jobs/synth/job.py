@@ -18,11 +18,12 @@ from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.memory import check_fits
 from unerode_cli.run.outputs import Outputs, save
-from unerode_cli.synthetic import synthesize
+from unerode_cli.synthetic import relief_for_extent, shape_of
 
-#: Peak bytes per cell of making the elevations (``synthetic.synthesize``: the spectrum, its
+#: Peak bytes per cell of making the elevations (``synthetic.shape_of``: the spectrum, its
 #: inverse transform and, for a mountain range, the ridges and bands), measured with tracemalloc
-#: (32 and 70) and rounded up; then the elevations kept while written, and a preview's hillshade.
+#: (32 and 70) and rounded up (the default relief's gradients after it: 30–37); then the
+#: elevations kept while written, and a preview's hillshade.
 SYNTH_BYTES_PER_CELL = {"fractal": 40, "mountain": 80}
 KEPT_BYTES_PER_CELL = 8
 PREVIEW_BYTES_PER_CELL = 48
@@ -38,10 +39,19 @@ class PlannedSynth:
     outputs: Outputs
 
 
+@dataclass
+class Synthesized:
+    """The elevations (m; NaN below 0 m with ``sea_nodata``) and the land relief (m) they have."""
+
+    elevation: np.ndarray
+    relief: float
+
+
 @declared("synth", OPTIONS)
 class SynthJob(Job):
-    """``size`` cells square of ``dx`` metres, ``relief`` metres of land, in ``crs`` around
-    ``centre`` ("X,Y" in CRS units; None: the CRS's area of use)."""
+    """``size`` cells square of ``dx`` metres, ``relief`` metres of land (None: 2000 m, or less
+    so that the land's median slope is at most 30°: ``synthetic.relief_for_extent``), in ``crs``
+    around ``centre`` ("X,Y" in CRS units; None: the CRS's area of use)."""
 
     def plan(self, outputs: OutputPlan) -> PlannedSynth:
         """Clear the outputs and place the grid (CRS, transform, cell size in metres)."""
@@ -61,20 +71,26 @@ class SynthJob(Job):
                    "give a smaller --size")
         return PlannedSynth(wkt, transform, cell, written)
 
-    def run(self, planned: PlannedSynth, progress: Progress) -> tuple[PlannedSynth, np.ndarray]:
-        """The elevations (m; NaN below 0 m with ``sea_nodata``)."""
-        elevation = synthesize(self.kind, (self.size, self.size), self.relief, self.seed)
+    def run(self, planned: PlannedSynth, progress: Progress) -> tuple[PlannedSynth, Synthesized]:
+        """The elevations, at ``relief`` or, without one, at the relief the extent allows (the
+        grid's cell sizes in metres, geographic CRSs included)."""
+        relative = shape_of(self.kind, (self.size, self.size), self.seed)
+        relief = self.relief
+        if relief is None:
+            relief = relief_for_extent(relative, planned.cell.dx, planned.cell.dy)
+        elevation = relief * relative
         if self.sea_nodata:
             elevation = np.where(elevation < 0.0, np.nan, elevation)
-        return planned, elevation
+        return planned, Synthesized(elevation, relief)
 
-    def write(self, result: tuple[PlannedSynth, np.ndarray], outputs: OutputPlan) -> str:
-        """Write the DEM with its history (and the seed), sidecar and preview."""
-        planned, elevation = result
-        terrain = Terrain(elevation, planned.cell.dx, planned.cell.dy, planned.crs_wkt,
+    def write(self, result: tuple[PlannedSynth, Synthesized], outputs: OutputPlan) -> str:
+        """Write the DEM with its history (the relief it has, and the seed), sidecar and preview."""
+        planned, made = result
+        terrain = Terrain(made.elevation, planned.cell.dx, planned.cell.dy, planned.crs_wkt,
                           planned.transform, -9999.0 if self.sea_nodata else None,
                           {"AREA_OR_POINT": "Area", "UNIT": "metre"})
-        save(terrain, planned.outputs, self.COMMAND, self.provenance(), seed=self.seed)
+        save(terrain, planned.outputs, self.COMMAND, {**self.provenance(), "relief": made.relief},
+             seed=self.seed)
         return ""
 
 

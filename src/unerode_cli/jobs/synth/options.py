@@ -16,7 +16,8 @@ OPTIONS = (
     dataclasses.replace(SEED, default=1, record=False),
     Opt("kind", str, "mountain", "fractal noise, or a mountain range draining south to a sea edge.",
         choices=("fractal", "mountain")),
-    Opt("relief", float, 2000.0, "Land relief (m, ≥ 0).", parser=Number("m", 0.0)),
+    Opt("relief", float, None, "Land relief (m, ≥ 0); default: 2000 m, or less where the extent would make "
+        "the land's median slope steeper than 30° (as real mountain ranges).", parser=Number("m", 0.0)),
     Opt("crs", str, "EPSG:32632", "CRS of the output (EPSG code, WKT or PROJ string)."),
     Opt("centre", str, None, "Centre X,Y in CRS units (lon,lat if geographic); default: the CRS's area "
         "of use."),
