@@ -34,8 +34,8 @@ def cpu_seconds() -> float:
 
 COMMANDS = {
     "glaciate": lambda dem, ela: ("glaciate", dem, "out.tif", "--ela", f"{ela:.0f}", "--duration", "200",
-                                  "--dt", "50", "--ice", "ice.tif", "--velocity", "v.tif",
-                                  "--preview", "out.png", "-q"),
+                                  "--dt", "50", "--flow-rtol", "0.03", "--ice", "ice.tif",
+                                  "--velocity", "v.tif", "--preview", "out.png", "-q"),
     "erode": lambda dem, ela: ("erode", dem, "out.tif", "--duration", "5000", "--dt", "500",
                                "--change-map", "change.tif", "--preview", "out.png", "-q"),
 }

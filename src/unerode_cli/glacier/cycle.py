@@ -41,6 +41,7 @@ import numpy as np
 from unerode_cli.glacier.coupled import GlacierState, Stopwatch
 from unerode_cli.grid import Grid
 from unerode_cli.processes import debris, fluvial, hillslope
+from unerode_cli.processes.budget import SurfaceChange
 from unerode_cli.processes.debris import DebrisParams
 from unerode_cli.processes.fluvial import FluvialParams
 from unerode_cli.processes.hillslope import HillslopeParams
@@ -133,9 +134,12 @@ class SurfaceParams:
 
 class IceFreeErosion:
     """Steps the processes of ice-free ground after each glacier step (module docstring); keeps
-    the routing between its updates and the volumes (m³) each process carried out of the bed so
-    far (``removed``: its outflux; hill slopes may bring material in from a fixed cell higher than
-    its neighbours, a negative outflux). ``outlets``: bool[ny, nx] base-level cells of the map;
+    the routing between its updates and the volumes (m³) each process moved so far: ``removed``,
+    its outflux (carried out of the domain; hill slopes may bring material in from a fixed cell
+    higher than its neighbours, a negative outflux); ``lowered`` Σ max(0, −Δz)·dx·dy and
+    ``raised`` Σ max(0, Δz)·dx·dy over the domain, summed step by step (the rock it took from
+    the bed and the material it laid on it: lowered − raised = −Σ Δz·dx·dy of that process), and
+    ``uplifted`` Σ U·dt·dx·dy (m³). ``outlets``: bool[ny, nx] base-level cells of the map;
     ``sea_level``: None, or the sea level (m) at a time (y since the start of the run), whose
     cells join the base level (module docstring). ``base_level``: bool[ny, nx], the outlets and
     the sea's cells of the last update. ``seconds``: wall-clock time spent so far on each process,
@@ -154,6 +158,9 @@ class IceFreeErosion:
         self._fixed: np.ndarray | None = None
         self._routed: np.ndarray | None = None  # the surface (m) the routing was computed on
         self.removed = {"hillslope": 0.0, "debris": 0.0, "fluvial": 0.0}
+        self.lowered = dict.fromkeys(self.removed, 0.0)
+        self.raised = dict.fromkeys(self.removed, 0.0)
+        self.uplifted = 0.0
 
     def saved(self) -> dict[str, np.ndarray | int | dict[str, float]]:
         """What ``restore`` needs to go on as if never stopped: the step count, the base level,
@@ -162,7 +169,8 @@ class IceFreeErosion:
         return {"steps": self.steps, "base_level": self.base_level,
                 "fixed": empty if self._fixed is None else self._fixed,
                 "routed": empty if self._routed is None else self._routed,
-                "removed": dict(self.removed), "seconds": dict(self.seconds)}
+                "removed": dict(self.removed), "lowered": dict(self.lowered), "raised": dict(self.raised),
+                "uplifted": self.uplifted, "seconds": dict(self.seconds)}
 
     def restore(self, saved: dict) -> None:
         """Continue from ``saved()``: the routing is computed again on the saved surface."""
@@ -171,6 +179,9 @@ class IceFreeErosion:
         self.steps = int(saved["steps"])
         self.base_level = np.asarray(saved["base_level"], dtype=bool)
         self.removed.update(saved["removed"])
+        self.lowered.update(saved.get("lowered", {}))
+        self.raised.update(saved.get("raised", {}))
+        self.uplifted = float(saved.get("uplifted", 0.0))
         self.seconds.update(saved["seconds"])
         fixed, routed = np.asarray(saved["fixed"]), np.asarray(saved["routed"])
         if fixed.size and routed.size:
@@ -202,8 +213,7 @@ class IceFreeErosion:
         if p.hillslope is not None:
             change = hillslope.step(bed, grid, self.base_level | self.shielded(state.thickness), p.hillslope,
                                     dt)
-            bed = bed + change.dh
-            self.removed["hillslope"] += change.budget.outflux
+            bed = self._apply(bed, change, "hillslope")
             clock.lap("hillslope")
         if p.debris is not None or p.fluvial is not None:
             if update:
@@ -213,17 +223,23 @@ class IceFreeErosion:
                 clock.lap("drainage")
             if p.debris is not None:
                 change = debris.step(bed, grid, self._fixed, p.debris, dt, routing=self._routing)
-                bed = bed + change.dh
-                self.removed["debris"] += change.budget.outflux
+                bed = self._apply(bed, change, "debris")
                 clock.lap("debris")
             if p.fluvial is not None:
                 change = fluvial.step(bed, grid, self._fixed, p.fluvial, dt, routing=self._routing,
                                       validated=True)
-                bed = bed + change.dh
-                self.removed["fluvial"] += change.budget.outflux
+                bed = self._apply(bed, change, "fluvial")
                 clock.lap("fluvial")
         uplift = np.where(grid.valid & ~self.base_level, np.asarray(p.uplift, dtype=np.float64) * dt, 0.0)
+        self.uplifted += float(uplift.sum()) * grid.cell_area
         self.steps += 1
         clock.lap("uplift")
         return replace(state, bed=bed + uplift)
 
+    def _apply(self, bed: np.ndarray, change: SurfaceChange, name: str) -> np.ndarray:
+        """The bed after ``change`` of process ``name``, its volumes counted."""
+        dh = np.where(self.grid.valid, change.dh, 0.0)
+        self.removed[name] += change.budget.outflux
+        self.lowered[name] += float(np.sum(np.maximum(-dh, 0.0))) * self.grid.cell_area
+        self.raised[name] += float(np.sum(np.maximum(dh, 0.0))) * self.grid.cell_area
+        return bed + change.dh

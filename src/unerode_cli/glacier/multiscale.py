@@ -23,7 +23,8 @@ One step of length dt (y), every field on the base grid:
    weight, so that the stack adds up to T (Σ R_i + T_n = T_0): wherever δt = dt as far as the
    coarsest level reaches, the step is exactly the explicit one, T' = dt·T — where the ice is
    slow, and outside the glacier;
-5. h(t + dt) = max(0, h + T').
+5. h(t + dt) = max(0, h + T'), and ice thinner than ``transport.MELT_OUT_THICKNESS`` (1 cm)
+   melts out where M < 0 (``transport.melt_out``).
 
 f ∈ [1, 2]: level i is smooth over 2^i cells, where the CFL step is 2^i·δt, and f^i·δt stays
 below it (001 sets f = 1.7: larger values make the levels oscillate against each other).
@@ -360,4 +361,6 @@ def step(thickness: np.ndarray, u_mean: np.ndarray, v_mean: np.ndarray, mass_bal
     delta_t = local_dt(u_mean, v_mean, grid, dt, c, boundary)
     rate = transport_rate(h, u_mean, v_mean, mass_balance, grid, delta_t, boundary)
     stack = gaussian_stack(rate, boundary, n)
-    return np.maximum(0.0, h + combine(stack, level_weights(delta_t, dt, f, n, boundary)))
+    return transport.melt_out(np.maximum(0.0, h + combine(stack, level_weights(delta_t, dt, f, n, boundary))),
+                              mass_balance)
+

@@ -24,6 +24,8 @@ from unerode_cli.grid import Grid
 #: 001 §5: "we found that c = 0.1 suppressed all instability in the ice model".
 CFL = 0.1
 _MODES = {"periodic": 0, "closed": 1, "open": 2}
+#: Ice thinner than this (m) at the end of a step melts out where the mass balance is negative.
+MELT_OUT_THICKNESS = 0.01
 
 
 def max_stable_dt(u_mean: np.ndarray, v_mean: np.ndarray, grid: Grid, c: float = CFL) -> float:
@@ -51,7 +53,7 @@ def flux_divergence(thickness: np.ndarray, u_mean: np.ndarray, v_mean: np.ndarra
 
 def step(thickness: np.ndarray, u_mean: np.ndarray, v_mean: np.ndarray, mass_balance: float | np.ndarray,
          grid: Grid, dt: float, boundary: str = "closed") -> np.ndarray:
-    """H(t + dt) = max(0, H + dt·(M − ∇·(H·ū))) (001 Eq. 1), float64[ny, nx] (m).
+    """H(t + dt) = max(0, H + dt·(M − ∇·(H·ū))) (001 Eq. 1), float64[ny, nx] (m), then ``melt_out``.
 
     Args:
         thickness: H ≥ 0 (m); not modified.
@@ -64,4 +66,24 @@ def step(thickness: np.ndarray, u_mean: np.ndarray, v_mean: np.ndarray, mass_bal
     if not (dt >= 0 and math.isfinite(dt)):
         raise ValueError(f"the time step must be finite and ≥ 0, got {dt} y")
     div = flux_divergence(thickness, u_mean, v_mean, grid, boundary)
-    return np.maximum(0.0, np.asarray(thickness, dtype=np.float64) + dt * (mass_balance - div))
+    return melt_out(np.maximum(0.0, np.asarray(thickness, dtype=np.float64) + dt * (mass_balance - div)),
+                    mass_balance)
+
+
+def melt_out(thickness: np.ndarray, mass_balance: float | np.ndarray) -> np.ndarray:
+    """H (m) with the ice thinner than ``MELT_OUT_THICKNESS`` set to 0 where M < 0 (m/y),
+    float64[ny, nx].
+
+    The coarse levels of a multi-scale step (``multiscale``) spread each level's change over 2^i
+    cells, ice-free ground beyond the glacier included, and leave films there (on Grindelwald
+    after 2000 y at ELA 2900 m: 16 % of the cells under less than 1 cm of ice, 19 m³ in all, down
+    to 1e-21 m): ice that Eq. 1 would not put there and that the next step's melt halves rather
+    than removes, so it decays geometrically. Below the equilibrium line such ice melts within a
+    year (1 cm where the surface is 1 m below it, β = 0.01/y), so there it is melted out at the
+    step's end. Where M ≥ 0 nothing melts: thin ice there is snow that stays, or ice that only
+    the flow moves (with M = 0 the transport keeps the volume). The threshold is far below the
+    thinnest glacier ice of the model (1 m, ``lakes.ICE_FREE_BELOW``), so glaciers and their
+    tongues keep their ice."""
+    thin = (thickness < MELT_OUT_THICKNESS) & (np.asarray(mass_balance) < 0.0)
+    return np.where(thin, 0.0, thickness)
+

@@ -62,6 +62,11 @@ ICE_FLOW = (
         "ice + Weertman sliding, fast baseline).", choices=("blatter", "sia"), panel=FLOW_PANEL),
     Opt("layers", int, FLOW_SPECS["n_layers"].default, "Layers N of the ice-flow lattice (001 §4.2), ≥ 1.",
         minimum=1, panel=FLOW_PANEL),
+    Opt("flow_rtol", float, coupled.FLOW_RTOL, "Relative residual ‖∇E‖/‖∇E(0)‖ every Blatter–Pattyn "
+        f"velocity solve must reach (default {coupled.FLOW_RTOL:g}: surface and sliding speeds within about "
+        "2 % of a converged solve on real DEMs, docs/glaciate.md); a larger value is faster and less "
+        "accurate, and the summary counts the solves that miss it.", parser=Number("", 0.0, 0.5, above=True),
+        panel=FLOW_PANEL),
     Opt("sliding_c", str, f"{SLIDING_SPEC.default:g}", "Sliding coefficient C (Pa·(y/m)^(σ-1), 001 Eq. 6): "
         "a number, a raster on the DEM's grid, or inf (frozen bed, no sliding, no erosion). The default "
         f"{SLIDING_SPEC.default:g} slides 25 m/y under a basal drag of 100 kPa, as measured on Alpine "

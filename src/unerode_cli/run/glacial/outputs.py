@@ -28,9 +28,19 @@ from unerode_cli.viz.glacial_chronology_plot import save_glacial_chronology_plot
 if TYPE_CHECKING:
     from unerode_cli.run.glacial.steps import GlacierOutcome
 
-#: Columns of ``--timeline``: one row per step taken (ramp steps included), at its end.
+#: Columns of ``--timeline``: one row per step taken (ramp steps included), at its end. The
+#: ``flow_*`` columns describe the step's Blatter–Pattyn solve (empty with SIA): its L-BFGS
+#: iterations, its final relative residual ‖∇E‖/‖∇E(0)‖ and whether that met the tolerance
+#: (``flow_converged``: 1 or 0).
 TIMELINE_COLUMNS = ("time_y", "age_ka", "ela_m", "ice_volume_m3", "ice_area_m2", "glacial_eroded_m3",
-                    "ice_free_removed_m3", "lake_area_m2")
+                    "ice_free_removed_m3", "lake_area_m2", "flow_iterations", "flow_residual",
+                    "flow_converged")
+#: Share of a run's velocity solves that may miss their tolerance before the summary says so.
+UNCONVERGED_WARN_FRACTION = 0.01
+#: The processes whose rock volumes the summary and the sidecar count, in their order.
+ROCK_PROCESSES = ("glacial", "hillslope", "debris", "fluvial")
+_PROCESS_WORDS = {"glacial": "glacial", "hillslope": "hillslope", "debris": "debris flow",
+                  "fluvial": "fluvial"}
 #: The column a run with a sea level adds: the sea level (m) at the step's end.
 SEA_COLUMN = "sea_level_m"
 
@@ -61,7 +71,15 @@ def timeline_row(prepared: PreparedGlacierRun, state: coupled.GlacierState, repo
             "glacial_eroded_m3": report.eroded,
             "ice_free_removed_m3": sum(ice_free.removed.values()) if ice_free is not None else 0.0,
             "lake_area_m2": lakes.lake_stats(lakes.lake_depth(state.bed, state.thickness, grid, outlets),
-                                             grid).area_m2, **sea}
+                                             grid).area_m2, **_flow_columns(report.flow), **sea}
+
+
+def _flow_columns(flow: coupled.FlowField) -> dict[str, Any]:
+    """The ``flow_*`` columns of a step's solve; empty cells (None) for SIA velocities."""
+    if flow.lattice is None:
+        return {"flow_iterations": None, "flow_residual": None, "flow_converged": None}
+    return {"flow_iterations": flow.iterations, "flow_residual": flow.residual,
+            "flow_converged": int(flow.converged)}
 
 
 def save_layer(prepared: PreparedGlacierRun, values: np.ndarray, path: Path, unit: str,
@@ -121,16 +139,63 @@ def write_glacier(prepared: PreparedGlacierRun, outcome: GlacierOutcome) -> str:
         write_table(run.timeline, columns, outcome.timeline)
     if prepared.chronology is not None:
         _write_chronology_plot(prepared, result)
+    volumes = rock_volumes(result, outcome.ice_free)
     summary = (f"{prepared.command}: {result.steps} steps to t = {final.time:g} y"
                f"{_forcing_summary(prepared, result)}; ice volume {result.volumes[-1] / 1e9:.4g} km³; "
-               f"removed {result.eroded:.4g} m³ of bedrock; wrote {run.output}")
-    if result.unconverged:
-        summary += (f"\nnote: {result.unconverged} of {result.steps} velocity solves stopped at "
-                    f"{prepared.params.flow_max_iter} iterations (largest residual "
-                    f"{result.max_residual:.2g}, asked {prepared.params.flow_rtol:g}); their velocities "
-                    "are approximate")
+               f"{_rock_summary(volumes)}{_solve_summary(prepared, result)}; wrote {run.output}")
+    if solves_warning(result, prepared.params.flow_rtol):
+        summary += "\n" + solves_warning(result, prepared.params.flow_rtol)
     checkpoint_path(run.output).unlink(missing_ok=True)
     return summary
+
+
+def rock_volumes(result: coupled.RunResult, ice_free: cycle.IceFreeErosion | None) -> dict[str, Any]:
+    """The rock each process took from the bed (``removed``) and laid on it (``deposited``) over
+    the run, m³ by process (``ROCK_PROCESSES``), their totals, and the uplift (m³): removed −
+    deposited − uplifted = −Σ Δb·dx·dy over the domain. The glaciers only remove (001 §6.1)."""
+    removed = {"glacial": result.eroded}
+    deposited = {"glacial": 0.0}
+    if ice_free is not None:
+        removed.update(ice_free.lowered)
+        deposited.update(ice_free.raised)
+    return {"removed_m3": removed, "deposited_m3": deposited,
+            "removed_total_m3": float(sum(removed.values())),
+            "deposited_total_m3": float(sum(deposited.values())),
+            "uplifted_m3": ice_free.uplifted if ice_free is not None else 0.0}
+
+
+def _rock_summary(volumes: dict[str, Any]) -> str:
+    """"removed X m³ of rock (glacial …, hillslope …), deposited Z m³ (…)" in words."""
+    def parts(by: dict[str, float]) -> str:
+        return ", ".join(f"{_PROCESS_WORDS[name]} {by[name]:.4g}" for name in ROCK_PROCESSES if name in by)
+
+    removed, deposited = volumes["removed_m3"], volumes["deposited_m3"]
+    text = f"removed {volumes['removed_total_m3']:.4g} m³ of rock ({parts(removed)})"
+    text += f", deposited {volumes['deposited_total_m3']:.4g} m³"
+    if len(deposited) > 1 and volumes["deposited_total_m3"] > 0:
+        text += f" ({parts(deposited)})"
+    if volumes["uplifted_m3"]:
+        text += f", uplifted {volumes['uplifted_m3']:.4g} m³"
+    return text
+
+
+def _solve_summary(prepared: PreparedGlacierRun, result: coupled.RunResult) -> str:
+    """"; N velocity solves to a residual of rtol (I iterations), K missed it" ("" without any)."""
+    if not result.solves:
+        return ""
+    return (f"; {result.solves} velocity solves to a residual of {prepared.params.flow_rtol:g} "
+            f"({result.iterations} iterations), {result.unconverged} missed it")
+
+
+def solves_warning(result: coupled.RunResult, rtol: float) -> str:
+    """The sentence a run gets when more than ``UNCONVERGED_WARN_FRACTION`` of its velocity
+    solves missed their tolerance ``rtol``; "" otherwise."""
+    if not result.solves or result.unconverged <= UNCONVERGED_WARN_FRACTION * result.solves:
+        return ""
+    return (f"warning: {result.unconverged} of {result.solves} velocity solves "
+            f"({result.unconverged / result.solves:.0%}) ended above the tolerance {rtol:g} "
+            f"(largest residual {result.max_residual:.2g}), so the velocities and erosion of this run "
+            "are not converged.")
 
 
 def _statistics(prepared: PreparedGlacierRun, outcome: GlacierOutcome) -> dict[str, Any]:
@@ -147,10 +212,15 @@ def _statistics(prepared: PreparedGlacierRun, outcome: GlacierOutcome) -> dict[s
         "max_erosion_m": float(lowering.max()) if lowering.size else 0.0,
         "transport_substeps": result.substeps,
         "rejected_steps": result.retries,
+        "velocity_solves": result.solves,
         "velocity_resolves": result.resolves,
+        "flow_iterations": result.iterations,
         "energy_evaluations": result.evaluations,
+        "flow_rtol": prepared.params.flow_rtol,
         "unconverged_solves": result.unconverged,
+        "unconverged_fraction": result.unconverged / result.solves if result.solves else 0.0,
         "max_flow_residual": result.max_residual,
+        "rock_volumes": rock_volumes(result, outcome.ice_free),
         "wall_time_s": outcome.wall,
         "snapshots": [str(p) for p in outcome.snapshots],
     }

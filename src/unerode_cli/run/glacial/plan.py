@@ -117,9 +117,10 @@ def plan_glacier(run: GlacierRun, outputs: OutputPlan, sea_level: Callable[[floa
     try:
         params = coupled.CoupledParams(
             flow=blatter.FlowParams(**flow_params), iceflow=run.iceflow, transport=run.transport,
-            multiscale_cfl=run.transport_cfl, allow_substeps=not run.no_substep, boundary=run.boundary,
+            multiscale_cfl=run.transport_cfl, flow_rtol=run.flow_rtol, allow_substeps=not run.no_substep,
+            boundary=run.boundary,
             background_slope=math.radians(run.background_slope), erosion=run.erosion,
-            held_bed=outlet_mask(terrain.grid, "all" if run.boundary == "open" else "none"), **values)
+            edge_cells=outlet_mask(terrain.grid, "all" if run.boundary == "open" else "none"), **values)
         params.validate(terrain.shape)
         surface = cycle.surface_params(surface_values, not run.no_hillslope, not run.no_debris,
                                        not run.no_fluvial, run.shield_thickness, run.drainage_every)
