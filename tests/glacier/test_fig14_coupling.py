@@ -124,9 +124,15 @@ def _interior(a: np.ndarray) -> np.ndarray:
     return a[MARGIN:-MARGIN, MARGIN:-MARGIN]
 
 
+#: Velocity solves to a residual of 0.03 rather than the default 1e-3: the measures of this module
+#: (slopes after deglaciation, U-shape index) keep within their tolerances at both (the 30 × 45 runs
+#: pass with the default too, in 156 s of set-up against ~10 s).
+FLOW_RTOL = 0.03
+
+
 def _run(bed0: np.ndarray, grid: Grid, outlets: np.ndarray, ela: coupled.Ela,
          surface: cycle.SurfaceParams | None) -> dict[str, np.ndarray]:
-    params = coupled.CoupledParams(k_e=1.3e-7 * KE, k_q=3.2e-5 * KE)
+    params = coupled.CoupledParams(k_e=1.3e-7 * KE, k_q=3.2e-5 * KE, flow_rtol=FLOW_RTOL)
     after = cycle.IceFreeErosion(surface, grid, outlets) if surface is not None else None
     max_ice = np.zeros_like(bed0)
 
