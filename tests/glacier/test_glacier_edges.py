@@ -3,9 +3,10 @@
 A 128 × 128 window (5.9 km square, 46 m cells) of the Grindelwald DEM, cut across two valley
 glaciers that leave it through its south and east edges, under an ELA of 2900 m for 2000 years
 with the defaults of ``glaciate`` (Blatter–Pattyn, open edges whose bed follows the interior,
-steps of 50 y). The band of cells within 500 m of the map's edge (31 % of the area) must not
-take more of the eroded rock than 1.2 times its share of the area, nor more than its share of
-the ice area of the fastest 1 % of the ice; across every edge the bed keeps its slope.
+steps of 50 y) but velocity solves to a residual of 0.03 (minutes instead of an hour). The band
+of cells within 500 m of the map's edge (31 % of the area) must not take more of the eroded rock
+than 1.2 times its share of the area, nor more than its share of the ice area of the fastest 1 %
+of the ice; across every edge the bed keeps its slope.
 
 Measured (100 s on two busy cores): the band holds 24 % of the eroded rock (0.78 of its share of
 the area) and none of the fastest 1 % of the ice (the fastest ice, 128 m/y, lies 35 cells from
@@ -33,7 +34,7 @@ def test_the_edge_band_erodes_no_more_than_the_interior_on_a_crop():
     terrain = read_terrain(GRINDELWALD)
     bed0 = terrain.elevation[WINDOW].copy()
     grid = type(terrain.grid).full(bed0.shape, terrain.dx, terrain.dy)
-    params = coupled.CoupledParams(edge_cells=outlet_mask(grid))
+    params = coupled.CoupledParams(edge_cells=outlet_mask(grid), flow_rtol=0.03)
     result = coupled.run(coupled.GlacierState(bed0, np.zeros_like(bed0)), grid, params, 2900.0,
                          coupled.step_times(2000.0, 50.0))
     final = result.state
