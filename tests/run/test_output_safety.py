@@ -209,6 +209,8 @@ def test_an_interrupted_run_names_the_files_it_left(tmp_path: Path, ramp: Path) 
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130
     assert "interrupted" in stderr and "out_001.tif" in stderr and "--overwrite" in stderr
+    if (tmp_path / ".out.tif.checkpoint.npz").exists():      # a checkpoint: --resume continues it
+        assert "--resume to continue" in stderr
     assert not list(tmp_path.glob(".out*.part*"))
     rerun = run_cli("erode", ramp, out, "--dt", 1, "--steps", 2, "--snapshot-every", 1, "--overwrite")
     assert rerun.returncode == 0, rerun.stderr
@@ -250,3 +252,19 @@ def test_a_checkpoint_left_behind_is_continued_or_replaced_never_ignored(tmp_pat
     resumed = run_cli("climate-run", ramp, out, *common, "--resume")
     assert resumed.returncode == 0, resumed.stderr
     assert out.exists() and not (tmp_path / ".past.tif.checkpoint.npz").exists()
+
+
+@pytest.mark.parametrize("files, words", [
+    (["out_001.tif"], ["rerun with --overwrite to replace them"]),
+    (["out_001.tif", ".out.tif.checkpoint.npz"], ["rerun with --resume to continue where it stopped",
+                                                  "or with --overwrite to start again"]),
+])
+def test_the_interrupt_note_names_resume_where_a_checkpoint_continues_the_run(
+        tmp_path: Path, files: list[str], words: list[str]) -> None:
+    from unerode_cli.cli.errors import _written_note
+    from unerode_cli.io.paths import OutputPlan
+
+    plan = OutputPlan(resume_flag="--resume", written=[tmp_path / name for name in files])
+    note = _written_note(plan)
+    assert note.startswith(f"; {len(files)} file(s) had been written and are kept: ")
+    assert all(word in note for word in words), note
