@@ -81,3 +81,26 @@ def test_cap_loaded_pillar_carries_the_cap() -> None:
         load = weight * np.count_nonzero(z > section)
         expected = -load / area
         assert sigma[layer, 2, 2].mean() == pytest.approx(expected, rel=0.05), section
+
+
+def test_a_wide_layer_bonded_to_its_ground_carries_geostatic_stress() -> None:
+    """The interior of a layer 30 m wide and 4 m thick on the ground is in uniaxial strain:
+    σ_zz = −ρg(H − z) and σ_xx = σ_yy = ν/(1 − ν)·σ_zz (Jaeger, Cook & Zimmerman 2007, §5.8),
+    each within 3 %, as a frame's first relaxation leaves it (the geostatic start, default
+    tolerance). A layer that slid on its base would keep σ_xx ≈ 0."""
+    thickness = 4.0
+    particles = Particles.new(sample(parse_scene({"domain": {"size": [32.0, 32.0, 8.0]}, "shape": {
+        "box": {"min": [1, 1, 0], "max": [31, 31, thickness]}}}).shape,
+        Lattice((0.0, 0.0, 0.0), (32.0, 32.0, 8.0), SPACING), seed=3), np.zeros(0))
+    lattice = Lattice((0.0, 0.0, 0.0), (32.0, 32.0, 8.0), SPACING)
+    solver = StressSolver(lattice.mpm_grid(), ROCK, SPACING**3, MpmParams())
+    lithostatic_guess(particles, lattice.surface_grid(), ROCK, SPACING)
+    assert solver.relax(particles, MpmParams().settle_substeps).converged
+    sigma = solver.cauchy_stress(particles)
+    x, y, z = particles.positions.T
+    core = (np.abs(x - 16.0) < 4.0) & (np.abs(y - 16.0) < 4.0) & (z > 1.0) & (z < 3.0)
+    vertical = sigma[core, 2, 2].mean()
+    assert vertical == pytest.approx(-ROCK.density * GRAVITY * (thickness - z[core]).mean(), rel=0.03)
+    ratio = ROCK.poisson_ratio / (1.0 - ROCK.poisson_ratio)
+    assert sigma[core, 0, 0].mean() / vertical == pytest.approx(ratio, rel=0.03)
+    assert sigma[core, 1, 1].mean() / vertical == pytest.approx(ratio, rel=0.03)

@@ -192,9 +192,17 @@ def _colours(blocks_x: int, blocks_y: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def lithostatic_guess(particles: Particles, grid: Grid3D, rock: Rock, spacing: float) -> None:
-    """Set F (in place) to the uniaxial strain of the weight above each particle: in each column
-    of ``grid`` (the surface grid, one particle per cell), a particle under n others carries
-    σ_zz = −ρ g (n + ½) s, so ε_zz = σ_zz/E and ε_xx = ε_yy = −ν ε_zz."""
+    """Set F (in place) to the geostatic strain of the weight above each particle: the rock
+    lies bonded to its ground, so it is strained in uniaxial strain (Jaeger, Cook & Zimmerman
+    2007, §5.8): in each column of ``grid`` (the surface grid, one particle per cell), a particle
+    under n others carries σ_zz = −ρ g (n + ½) s, so ε_zz = σ_zz/(λ + 2μ), ε_xx = ε_yy = 0 and
+    σ_xx = σ_yy = ν/(1 − ν)·σ_zz.
+
+    MPM integrates F from the velocities and never checks it against the held ground, so the
+    start decides which static state a wide body settles in: from a state of uniaxial stress
+    (ε_xx = −ν ε_zz, σ_xx = 0, in equilibrium everywhere) the interior of a wide layer keeps σ_xx
+    = 0 as if it slid on its base. Near free faces the relaxation removes the lateral stress the
+    guess puts there (a free column ends with σ_xx ≈ 0 either way, ``test_mpm``)."""
     cells = grid.cells_of(particles.positions)
     column = cells[:, 0] * grid.shape[1] + cells[:, 1]
     order = np.lexsort((-particles.positions[:, 2], column))
@@ -202,8 +210,8 @@ def lithostatic_guess(particles: Particles, grid: Grid3D, rock: Rock, spacing: f
     first = np.searchsorted(sorted_columns, sorted_columns, side="left")
     above = np.empty(len(order))
     above[order] = np.arange(len(order)) - first
-    strain = -rock.density * GRAVITY * (above + 0.5) * spacing / rock.young_modulus
+    sigma_zz = -rock.density * GRAVITY * (above + 0.5) * spacing
     deformation = np.zeros((len(order), 3, 3))
-    deformation[:, 0, 0] = deformation[:, 1, 1] = 1.0 - rock.poisson_ratio * strain
-    deformation[:, 2, 2] = 1.0 + strain
+    deformation[:, 0, 0] = deformation[:, 1, 1] = 1.0
+    deformation[:, 2, 2] = 1.0 + sigma_zz / (rock.lame_lambda + 2.0 * rock.shear_modulus)
     particles.deformation = deformation

@@ -195,9 +195,11 @@ def particles_to_grid(order: np.ndarray, starts: np.ndarray, colour_blocks: np.n
 def update_grid(grid_mass: np.ndarray, grid_momentum: np.ndarray, dt: float, gravity: float,
                 damping: float) -> float:
     """Grid velocities (002 Eq. 6) in place of the momenta: v = (mv)/m + g Δt, damped by the
-    factor (1 − ``damping``), with a sticky ground (v = 0 on and below the domain's low z face)
-    and roller side walls (no normal velocity on the domain's x and y faces); zero where there is
-    no mass. Returns the mass-weighted RMS node speed sqrt(Σ m v² / Σ m) (m/s): nodes at the
+    factor (1 − ``damping``), with a ground the rock is bonded to (v = 0 on and below the
+    domain's low z face, and no horizontal velocity on the first node level above it: no slip in
+    the basal cell, whose particles otherwise take a third of their velocity from that level and
+    let a wide layer spread on its base, ``test_mpm``) and roller side walls (no normal velocity
+    on the domain's x and y faces); zero where there is no mass. Returns the mass-weighted RMS node speed sqrt(Σ m v² / Σ m) (m/s): nodes at the
     rock's fringe carry almost no mass and noisy velocities, which a maximum would report."""
     nx, ny, nz = grid_mass.shape
     slab_energy = np.zeros(nx)
@@ -218,9 +220,9 @@ def update_grid(grid_mass: np.ndarray, grid_momentum: np.ndarray, dt: float, gra
                 vx = grid_momentum[i, j, k, 0] / m * keep
                 vy = grid_momentum[i, j, k, 1] / m * keep
                 vz = (grid_momentum[i, j, k, 2] / m - gravity * dt) * keep
-                if i <= 1 or i >= nx - 2:
+                if i <= 1 or i >= nx - 2 or k == 2:
                     vx = 0.0
-                if j <= 1 or j >= ny - 2:
+                if j <= 1 or j >= ny - 2 or k == 2:
                     vy = 0.0
                 grid_momentum[i, j, k, 0] = vx
                 grid_momentum[i, j, k, 1] = vy
