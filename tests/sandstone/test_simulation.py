@@ -37,7 +37,7 @@ def test_every_eroded_particle_is_deposited_or_exported() -> None:
     for _ in range(30):
         stats = simulation.step()
         assert stats.eroded == stats.deposited + stats.exported
-        assert stats.particles == count - stats.eroded + stats.deposited
+        assert stats.particles == count - stats.eroded + stats.deposited - stats.fallen + stats.fallen_landed
         count, eroded = stats.particles, eroded + stats.eroded
     assert eroded > 100  # the test saw erosion
     assert np.count_nonzero(simulation.particles.deposit) > 0

@@ -199,7 +199,9 @@ def update_grid(grid_mass: np.ndarray, grid_momentum: np.ndarray, dt: float, gra
     domain's low z face, and no horizontal velocity on the first node level above it: no slip in
     the basal cell, whose particles otherwise take a third of their velocity from that level and
     let a wide layer spread on its base, ``test_mpm``) and roller side walls (no normal velocity
-    on the domain's x and y faces); zero where there is no mass. Returns the mass-weighted RMS node speed sqrt(Σ m v² / Σ m) (m/s): nodes at the
+    on the domain's x and y faces); zero where there is no mass.
+
+    Returns the mass-weighted RMS node speed sqrt(Σ m v² / Σ m) (m/s): nodes at the
     rock's fringe carry almost no mass and noisy velocities, which a maximum would report."""
     nx, ny, nz = grid_mass.shape
     slab_energy = np.zeros(nx)

@@ -9,7 +9,9 @@ fluvial rate F of Eq. 14 (``fluvial``), skipped (F = 0) when no layer has k_t > 
 (Eq. 1) of the surface particles, the wind and fluvial rates shielded by the vegetation cover
 (§8.3, ``vegetation``), which then grows on the deposits that stayed; (6) deposition (§7) of
 what eroded: each eroded particle is either deposited on a stable cell or exported out of the
-domain (also when it would land in the part of §7's offset grid that overhangs the domain).
+domain (also when it would land in the part of §7's offset grid that overhangs the domain);
+(7) block fall (002 Fig. 3): a piece of rock that erosion cut off the ground falls and is laid
+as debris by the same deposition (``support``).
 
 Deposits eroded again are exported: 002 §7 deposits the rock's debris and "neglect[s] smaller
 sand grains and their transport by wind, as they are carried away from our domain", and a
@@ -32,6 +34,7 @@ from unerode_cli.sandstone import (
     deposition,
     discharge,
     fluvial,
+    support,
     surface,
     vegetation,
     viability,
@@ -86,7 +89,8 @@ class FrameStats:
     interlocked particles, the largest compressive stress (Pa), the MPM's work, the wall
     time of each stage (s), the eroded particles whose fluvial rate exceeded their wind rate
     (``eroded_fluvial``) and the largest discharge of a cell (m³/y; 0 when fluvial erosion did
-    not run)."""
+    not run), and the particles of pieces cut off the ground that fell (``fallen``; ``fallen_landed``
+    of them laid as debris, the rest left the domain)."""
 
     frame: int
     particles: int
@@ -101,6 +105,8 @@ class FrameStats:
     seconds: dict[str, float]
     eroded_fluvial: int
     discharge_max: float
+    fallen: int = 0
+    fallen_landed: int = 0
 
 
 class Simulation:
@@ -176,8 +182,11 @@ class Simulation:
         lap("erosion")
         removed = p.positions[eroded]
         placed = self._deposit(p.positions[eroded & ~p.deposit], p.select(~eroded))
+        falls = support.unsupported(self.particles.positions, self.surface_grid)
+        fell = self.particles.positions[falls]
+        landed = self._deposit(fell, self.particles.select(~falls)) if len(fell) else np.zeros((0, 3))
         lap("deposition")
-        self.changes = np.concatenate([removed, placed])
+        self.changes = np.concatenate([removed, placed, fell, landed])
         self.frame += 1
         return FrameStats(
             frame=self.frame, particles=len(self.particles), eroded=len(removed), deposited=len(placed),
@@ -186,7 +195,7 @@ class Simulation:
             max_stress=float(p.stress.max()) if len(p) else 0.0, mpm_substeps=relaxation.substeps,
             mpm_residual=relaxation.residual, seconds=seconds,
             eroded_fluvial=int(np.count_nonzero(eroded & (fluvial_rate > rates))),
-            discharge_max=discharge_max)
+            discharge_max=discharge_max, fallen=len(fell), fallen_landed=len(landed))
 
     def _fluvial(self, on_surface: np.ndarray) -> tuple[np.ndarray, float]:
         """The fluvial rate F of every particle (002 Alg. 1, lines 11–14) and the largest

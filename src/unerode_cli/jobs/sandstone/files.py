@@ -35,7 +35,7 @@ from unerode_cli.volume.particle_surface import particle_mesh
 COMMAND = "sandstone"
 FRAME_COLUMNS = ["frame", "particles", "eroded", "deposited", "exported", "surface", "interlocked_share",
                  "max_stress_mpa", "mpm_substeps", "mpm_residual", "eroded_fluvial", "discharge_max_m3y",
-                 *(f"{s}_s" for s in STAGES)]
+                 "fallen", *(f"{s}_s" for s in STAGES)]
 #: Colour of preview.png per ``--color-by``: the caption of its values.
 PREVIEW_LABELS = {"layer": "layer (bottom = 0; the last is deposits)", "stress": "-tr σ (MPa)",
                   "viability": "viability b"}
@@ -46,7 +46,8 @@ def row(stats: FrameStats) -> dict[str, Any]:
     values = {k: getattr(stats, k) for k in FRAME_COLUMNS[:7]}
     values.update(max_stress_mpa=stats.max_stress / 1e6, mpm_substeps=stats.mpm_substeps,
                   mpm_residual=stats.mpm_residual, eroded_fluvial=stats.eroded_fluvial,
-                  discharge_max_m3y=stats.discharge_max, **{f"{s}_s": stats.seconds[s] for s in STAGES})
+                  discharge_max_m3y=stats.discharge_max, fallen=stats.fallen,
+                  **{f"{s}_s": stats.seconds[s] for s in STAGES})
     return values
 
 
@@ -88,7 +89,8 @@ def write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: lis
                 **io_library_versions()}
     statistics = {
         "particles": len(p), "frames": simulation.frame,
-        **{key: sum(r[key] for r in rows) for key in ("eroded", "deposited", "exported", "eroded_fluvial")},
+        **{key: sum(r[key] for r in rows) for key in ("eroded", "deposited", "exported", "eroded_fluvial",
+                                                           "fallen")},
         "discharge_max_m3y": max((r["discharge_max_m3y"] for r in rows), default=0.0),
         "interlocked_share": float(p.interlocked.mean()) if len(p) else 0.0,
         "wall_time_s": seconds, "sampling_s": sampled,
