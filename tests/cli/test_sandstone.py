@@ -141,3 +141,20 @@ def _assert_refused(result, out: Path, says: str) -> None:
     assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
     assert says.lower() in lines[0].lower()
     assert not out.exists()
+
+
+def test_a_scene_carries_the_frames_and_time_step_its_landform_needs(tmp_path: Path) -> None:
+    """``run: {frames, dt}`` in a scene sets the defaults of --frames and --dt; the options win;
+    a wind rose is read from the scene."""
+    scene = _scene(tmp_path, SCENE.replace("wind: {azimuth: 180, speed: 10}",
+                                           "wind: {speed: 10, rose: [{azimuth: 0, weight: 1}, "
+                                           "{azimuth: 180, weight: 3}]}\nrun: {frames: 3, dt: 2500}"))
+    out = tmp_path / "run"
+    assert run_cli("sandstone", scene, out, *FAST).returncode == 0
+    run = json.loads((out / "run.json").read_text())
+    assert run["statistics"]["frames"] == 3 and run["parameters"]["dt_years"] == 2500.0
+    assert run["parameters"]["wind"]["rose"] == [[0.0, 1.0], [180.0, 3.0]]
+    given = run_cli("sandstone", scene, tmp_path / "given", "--frames", "2", "--dt", "100", *FAST)
+    assert given.returncode == 0, given.stderr
+    run = json.loads((tmp_path / "given" / "run.json").read_text())
+    assert run["statistics"]["frames"] == 2 and run["parameters"]["dt_years"] == 100.0

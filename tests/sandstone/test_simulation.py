@@ -24,7 +24,7 @@ def restore_threads():
 def _simulation(name: str, particles: int, seed: int = 0, **params) -> Simulation:
     scene = preset_scene(name)
     lattice, _ = lattice_for(scene.shape, scene.low, np.array(scene.domain.size), particles)
-    wind = WindParams(azimuth=scene.wind.azimuth, speed=scene.wind.speed)
+    wind = WindParams(azimuth=scene.wind.azimuth, speed=scene.wind.speed, rose=scene.wind.rose_pairs())
     return Simulation(scene_particles(scene, lattice, seed), scene.layer_stack(), scene.rock_parameters(),
                       lattice, SimulationParams(wind=wind, **params), seed=seed)
 
@@ -86,17 +86,19 @@ def test_the_arch_opens_a_through_hole_under_a_bridge_held_by_both_supports() ->
 
 @pytest.mark.slow
 def test_the_hoodoo_neck_ends_narrower_than_its_cap() -> None:
-    """The weak layers under the caprock thin, across the wind (along x), to a neck narrower than
-    0.7 × the cap, whose width stays that of the initial column (10 m)."""
-    simulation, spacing = _run("hoodoo", 60_000, 200)
+    """Under the preset's wind rose the weak layers under the caprock thin from every side: the
+    neck, along x and along y, is at most 0.6 × the cap, whose width stays that of the initial
+    column (10 m) (issue measure; 60 000 particles, 300 frames of 1000 y)."""
+    simulation, _ = _run("hoodoo", 60_000, 300)
     rock = simulation.particles.select(~simulation.particles.deposit)
-    x, z = rock.positions[:, 0], rock.positions[:, 2]
+    z = rock.positions[:, 2]
 
-    def width(low: float, high: float) -> float:
-        inside = x[(z >= low) & (z < high)]
+    def width(axis: int, low: float, high: float) -> float:
+        inside = rock.positions[(z >= low) & (z < high), axis]
         return float(np.percentile(inside, 99) - np.percentile(inside, 1)) if inside.size else 0.0
 
-    cap = width(25.0, 29.0)
-    neck = min(width(level, level + 2.0) for level in np.arange(2.0, 22.0, 2.0))
-    assert cap > 9.0, "the caprock did not survive"
-    assert neck < 0.7 * cap
+    for axis in (0, 1):
+        cap = width(axis, 25.0, 29.0)
+        neck = min(width(axis, level, level + 2.0) for level in np.arange(2.0, 22.0, 2.0))
+        assert cap > 9.0, "the caprock did not survive"
+        assert neck <= 0.6 * cap, (axis, neck, cap)

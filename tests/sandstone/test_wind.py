@@ -101,3 +101,34 @@ def test_abrasion_is_identical_on_one_and_two_threads(scene, threads):
         runs.append(_rate(scene, params, seed=4, frame=7))
     assert np.array_equal(runs[0], runs[1])
     assert not np.array_equal(runs[0], _rate(scene, params, seed=4, frame=8))
+
+
+def _faces(positions, on_surface, corner):
+    """Surface particles of a box's west, east, south and north faces, 5 m from their edges."""
+    x, y = corner
+    middle = (positions[:, 2] > 5.0) & (positions[:, 2] < SIDE - 5.0) & on_surface
+    along_y = np.abs(positions[:, 1] - y - SIDE / 2) < 3.0
+    along_x = np.abs(positions[:, 0] - x - SIDE / 2) < 3.0
+    return [middle & along_y & (np.abs(positions[:, 0] - x - s * SIDE) < 0.8) for s in (0, 1)] + \
+           [middle & along_x & (np.abs(positions[:, 1] - y - s * SIDE) < 0.8) for s in (0, 1)]
+
+
+def test_a_wind_rose_cuts_every_face_it_names_by_its_share_of_the_time(scene):
+    """The rose west 1/2, east 1/4, north 1/4 (south: none): the open box's faces erode at
+    k_a·U² times their shares (west 0.5, east 0.25, north 0.25, south 0) within 5 %, as the
+    time-weighted sum of the single winds (to rounding)."""
+    positions, _, on_surface, _ = scene
+    rose = wind.WindParams(speed=SPEED, rose=((270.0, 2.0), (90.0, 1.0), (0.0, 1.0)))
+    rate = _rate(scene, rose)
+    singles = sum(share * _rate(scene, wind.WindParams(speed=SPEED, azimuth=azimuth))
+                  for azimuth, share in ((270.0, 0.5), (90.0, 0.25), (0.0, 0.25)))
+    np.testing.assert_allclose(rate, singles, rtol=1e-12, atol=1e-15)
+    west, east, south, north = (rate[face].mean() for face in _faces(positions, on_surface, OPEN))
+    full = K_A * SPEED**2
+    assert [west / full, east / full, north / full] == pytest.approx([0.5, 0.25, 0.25], rel=0.05)
+    assert south == 0.0
+
+
+def test_a_rose_needs_positive_weights():
+    with pytest.raises(ValueError, match="weight > 0"):
+        wind.WindParams(rose=((270.0, 0.0),))

@@ -22,8 +22,12 @@ these presets.
   ridge, and most of its debris falls off the domain (exported) instead of burying its foot.
 - ``hoodoo`` (Fig. 7 row 2): "a vertical cuboid with varied erodibility ..., the upper layer
   strong with low erodibility ..., a lateral wind". A 10 m × 10 m column 30 m high, a 6 m
-  caprock a hundred times less erodible on three weak layers; wind from the west; 2 m of domain
-  around it, as for the arch.
+  caprock a hundred times less erodible on three weak layers; 2 m of domain around it, as for
+  the arch. 002 names "a lateral wind"; a wind from one side only cuts the column on that side
+  (a stepped column, no neck), so the preset's wind is a rose from the four quarters, equally
+  often: the weak layers narrow from every side under the cap. It runs 400 frames of 1000 y by
+  default. A face retreats by about one particle spacing each time its particles' viability is
+  used up (002 Eq. 1), so the frames a landform needs grow with the particle count.
 - ``arcade`` (Fig. 7 row 3): "the user brushes weaker parts on the weak layer". A wall 40 m long,
   6 m thick and 26 m high on four layers (I from 1 MPa at the bottom to 6 MPa at the top, Table
   1); four balls of radius 2.5 m, 8 m apart, through the wall's weak bottom layer, painted four
@@ -120,7 +124,10 @@ HOODOO: dict[str, Any] = {
     "deposit": _layer(None, 1e-4, 3e6, 2e-5, 1e-7, "deposit"),
     "rock": {"deposit_viability": 0.0},
     "noise": {"amplitude": 0.3, "wavelength": 3.0, "seed": 2},
-    "wind": {"azimuth": 270.0, "speed": 10.0},
+    # winds from the four quarters, equally often: a free-standing column is cut from every side
+    "wind": {"speed": 10.0, "rose": [{"azimuth": a, "weight": 1.0} for a in (0.0, 90.0, 180.0, 270.0)]},
+    # the neck reaches 0.6 × the cap after ~260 frames at 60 000 particles, ~310 at 150 000
+    "run": {"frames": 400, "dt": 1000.0},
 }
 
 ARCADE: dict[str, Any] = {

@@ -21,6 +21,7 @@ Example (lengths in m, erodibilities in 1/y, stresses in Pa, k_t in 1/Pa)::
     water:                              # fluvial erosion needs a layer with k_t > 0
       precipitation: 0.25               # m/y
       sources: [{position: [20, 8, 20], discharge: 1e5}]   # m, m³/y
+    run: {frames: 80, dt: 4000}         # what the landform needs; --frames and --dt override
 """
 
 from __future__ import annotations
@@ -196,16 +197,31 @@ class Noise(_Strict):
     octaves: int = Field(1, ge=1, le=8)
 
 
+class RoseWind(_Strict):
+    """One prevailing wind of a rose: the ``azimuth`` it comes from (degrees clockwise from
+    north) and its ``weight``, its share of the time once the weights are normalised."""
+
+    azimuth: float = Field(ge=0, le=360)
+    weight: float = Field(gt=0)
+
+
 class Wind(_Strict):
     """The storm wind of abrasion (002 Eq. 8): it comes *from* ``azimuth`` (degrees clockwise
     from north; 270 is a west wind), ``elevation`` degrees above the horizon, at ``speed`` (m/s);
-    ``cone_angle`` (degrees) and ``rays`` set its shelter model (``sandstone.wind``)."""
+    ``cone_angle`` (degrees) and ``rays`` set its shelter model (``sandstone.wind``). A ``rose``
+    of prevailing winds, ``[{azimuth: 270, weight: 2}, {azimuth: 90, weight: 1}, …]``, replaces
+    ``azimuth``: the wind blows from each for its share of the time."""
 
     azimuth: float = 270.0
     elevation: float = Field(0.0, ge=-90, le=90)
     speed: float = Field(10.0, ge=0)
     cone_angle: float = Field(10.0, ge=0, lt=90)
     rays: int = Field(16, ge=1)
+    rose: list[RoseWind] = Field(default_factory=list)
+
+    def rose_pairs(self) -> tuple[tuple[float, float], ...]:
+        """The rose as (azimuth in degrees, weight) pairs; () without one."""
+        return tuple((wind.azimuth, wind.weight) for wind in self.rose)
 
 
 class WaterSource(_Strict):
@@ -228,6 +244,14 @@ class Water(_Strict):
         return tuple((*source.position, source.discharge) for source in self.sources)
 
 
+class RunSettings(_Strict):
+    """The ``frames`` and time step ``dt`` (years) a scene's landform needs: the defaults of
+    ``--frames`` and ``--dt`` for it."""
+
+    frames: int = Field(ge=1)
+    dt: float = Field(gt=0, allow_inf_nan=False)
+
+
 class Scene(_Strict):
     """A whole scene; see the module docstring for an example."""
 
@@ -243,6 +267,7 @@ class Scene(_Strict):
     noise: Noise | None = None
     wind: Wind = Wind()
     water: Water = Water()
+    run: RunSettings | None = None
 
     @model_validator(mode="after")
     def _consistent(self) -> Scene:

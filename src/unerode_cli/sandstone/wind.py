@@ -23,7 +23,7 @@ Eq. 1 needs with E in 1/year), U in m/s, lengths in m.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
@@ -52,6 +52,11 @@ class WindParams:
         rays: rays cast per surface particle.
         ray_length: how far upwind (m) an obstacle shelters a particle; ``inf``: up to the
             grid's edge.
+        rose: prevailing winds, pairs (azimuth in degrees, weight > 0); when given, the wind
+            blows from each azimuth (at ``elevation`` and ``speed``) for its share of the time,
+            weight/Σ weights, and abrasion is the time-weighted sum (``abrasion_rate``), so a
+            rock is cut from every side the rose names. ``azimuth`` and ``direction`` are then
+            not used.
     """
 
     azimuth: float = 270.0
@@ -61,8 +66,13 @@ class WindParams:
     cone_angle: float = 10.0
     rays: int = 16
     ray_length: float = math.inf
+    rose: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
+        for azimuth, weight in self.rose:
+            if not (math.isfinite(azimuth) and math.isfinite(weight) and weight > 0.0):
+                raise ValueError(f"a wind rose entry needs a finite azimuth and a weight > 0, not "
+                                 f"({azimuth}, {weight})")
         if not (math.isfinite(self.speed) and self.speed >= 0.0):
             raise ValueError(f"the wind speed must be a finite number ≥ 0 m/s, not {self.speed}")
         if not 0.0 <= self.cone_angle < 90.0:
@@ -84,6 +94,16 @@ class WindParams:
             return d / np.linalg.norm(d)
         a, e = math.radians(self.azimuth), math.radians(self.elevation)
         return -np.array([math.sin(a) * math.cos(e), math.cos(a) * math.cos(e), math.sin(e)])
+
+
+def prevailing(params: WindParams) -> list[tuple[WindParams, float]]:
+    """The single winds of ``params`` and their shares of the time (summing to 1): the rose's
+    azimuths, or the one wind."""
+    if not params.rose:
+        return [(params, 1.0)]
+    total = sum(weight for _, weight in params.rose)
+    return [(replace(params, azimuth=azimuth, direction=None, rose=()), weight / total)
+            for azimuth, weight in params.rose]
 
 
 def cone_rays(params: WindParams, seed: int, frame: int) -> np.ndarray:
@@ -118,7 +138,8 @@ def exposure(positions: np.ndarray, which: np.ndarray, grid: Grid3D, rays: np.nd
 
 def abrasion_rate(positions: np.ndarray, normals: np.ndarray, surface: np.ndarray, grid: Grid3D,
                   k_a: np.ndarray, params: WindParams, seed: int, frame: int) -> np.ndarray:
-    """Wind abrasion W_a = k_a‖v‖(−n·v)₊ (002 Eq. 8) with v = e·U·d (module docstring), ``(N,)``.
+    """Wind abrasion W_a = k_a‖v‖(−n·v)₊ (002 Eq. 8) with v = e·U·d (module docstring), ``(N,)``;
+    for a wind rose, Σ_i s_i·W_a(d_i) over its winds d_i and their shares of the time s_i.
 
     Args:
         positions: particle positions ``(N, 3)`` (m).
@@ -131,6 +152,15 @@ def abrasion_rate(positions: np.ndarray, normals: np.ndarray, surface: np.ndarra
 
     Returns W_a, dimensionless (a rate once multiplied by E, 1/year, in Eq. 1).
     """
+    rate = np.zeros(len(normals))
+    for wind, share in prevailing(params):
+        rate += share * _one_wind(positions, normals, surface, grid, k_a, wind, seed, frame)
+    return rate
+
+
+def _one_wind(positions: np.ndarray, normals: np.ndarray, surface: np.ndarray, grid: Grid3D,
+              k_a: np.ndarray, params: WindParams, seed: int, frame: int) -> np.ndarray:
+    """``abrasion_rate`` of one wind (no rose)."""
     d = params.blowing
     facing = np.maximum(0.0, -(np.asarray(normals, dtype=np.float64) @ d))
     which = np.asarray(surface, dtype=np.bool_) & (facing > 0.0) & (np.asarray(k_a) != 0.0)

@@ -58,15 +58,16 @@ class SandstoneJob(Job):
             outputs.check_output(self.mesh, True)
         source = read_source(self.scene, self.particles, self.extrude, self.band, self.channel,
                              self.parameter_values())
-        check_sources(planning.water_sources(self), source)
-        params = planning.simulation_params(self, source)
+        job = planning.with_run_settings(self, source)
+        check_sources(planning.water_sources(job), source)
+        params = planning.simulation_params(job, source)
         check_memory(source)
-        provenance = planning.provenance(self, source, params)
-        checkpoints = planning.checkpoints(self, paths, scene_file, provenance)
-        if self.resume:
-            planning.check_resume(self, checkpoints)
-        planning.clear_outputs(self, paths, outputs)
-        return PreparedSandstone(self, source, params, paths, provenance, checkpoints)
+        provenance = planning.provenance(job, source, params)
+        checkpoints = planning.checkpoints(job, paths, scene_file, provenance)
+        if job.resume:
+            planning.check_resume(job, checkpoints)
+        planning.clear_outputs(job, paths, outputs)
+        return PreparedSandstone(job, source, params, paths, provenance, checkpoints)
 
     def run(self, planned: PreparedSandstone, progress: Progress) -> SandstoneResult:
         return run_frames(planned, progress)

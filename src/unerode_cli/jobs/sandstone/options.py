@@ -27,6 +27,9 @@ from unerode_cli.run.declare import Opt, parameter_options
 from unerode_cli.run.values import Number, Numbers
 from unerode_cli.sandstone.layers import LAYER_PARAMETERS, ROCK_PARAMETERS
 
+#: ``--frames`` and ``--dt`` (years) of a scene without ``run`` settings.
+DEFAULT_FRAMES, DEFAULT_DT = 100, 1000.0
+
 LAYER_PANEL = ("Layers (002 Eq. 2, 8, 12; Table 1): a value given replaces every layer's; 'default' is "
                "that of a layer that sets none")
 ROCK_PANEL = "Rock (002 §4, Eq. 9; Table 2)"
@@ -54,9 +57,11 @@ OPTIONS = (
         "the DEM's surface.", parser=METRES, panel=RUN),
     Opt("particles", int, None, "Approximate particle count (the sampling spacing and the grids follow; "
         "default: the scene's, presets: 002 Table 1's).", minimum=1, panel=RUN, record="particles_requested"),
-    Opt("frames", int, 100, "Frames to run (each: stress, normals, wind, fluvial, erosion, deposition).",
+    Opt("frames", int, None, "Frames to run (each: stress, normals, wind, fluvial, erosion, deposition; "
+        f"default: the scene's run.frames, presets: what their landform needs, else {DEFAULT_FRAMES}).",
         panel=RUN),
-    Opt("dt", float, 1000.0, "Time step of a frame (years; 002 Table 2: 1000).", parser=POSITIVE_YEARS,
+    Opt("dt", float, None, "Time step of a frame (years; default: the scene's run.dt, presets: what "
+        f"their landform needs, else 002 Table 2's {DEFAULT_DT:g}).", parser=POSITIVE_YEARS,
         panel=RUN, record="dt_years"),
     SEED,
     Opt("threads", int, None, "Numba threads (default: all cores); the result does not depend on it.",

@@ -5,6 +5,7 @@ sampled here."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -14,7 +15,7 @@ from unerode_cli.errors import InputError
 from unerode_cli.io.checkpoints import read_checkpoint_header
 from unerode_cli.io.mesh_files import mesh_format
 from unerode_cli.io.paths import OutputPlan
-from unerode_cli.jobs.sandstone.options import ABLATIONS, COLOR_BY, TOP_FORMATS
+from unerode_cli.jobs.sandstone.options import ABLATIONS, COLOR_BY, DEFAULT_DT, DEFAULT_FRAMES, TOP_FORMATS
 from unerode_cli.jobs.sandstone.source import Source
 from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.stepping import Checkpoints
@@ -64,7 +65,7 @@ def check_options(job: SandstoneJob) -> None:
                                ("--mesh-smoothing", job.mesh_smoothing, 0)):
         if value is not None and value < low:
             raise InputError(f"{option} must be at least {low}, got {value}.")
-    if not (math.isfinite(job.dt) and job.dt > 0):
+    if job.dt is not None and not (math.isfinite(job.dt) and job.dt > 0):
         raise InputError(f"--dt must be a positive number of years, got {job.dt}.")
     if not 0 <= job.seed < 2**63:
         raise InputError(f"--seed must be an integer in [0, 2^63), got {job.seed}.")
@@ -81,6 +82,15 @@ def check_options(job: SandstoneJob) -> None:
     if job.resume and job.overwrite:
         raise InputError("--resume continues OUT_DIR's run and --overwrite starts it afresh: "
                          "give one of them.")
+
+
+def with_run_settings(job: SandstoneJob, source: Source) -> SandstoneJob:
+    """The job with ``--frames`` and ``--dt`` given: the options, else the scene's run settings
+    (a preset's: what its landform needs), else DEFAULT_FRAMES and DEFAULT_DT."""
+    run = source.run
+    frames = job.frames if job.frames is not None else run.frames if run is not None else DEFAULT_FRAMES
+    dt = job.dt if job.dt is not None else run.dt if run is not None else DEFAULT_DT
+    return dataclasses.replace(job, frames=frames, dt=dt)
 
 
 def output_paths(job: SandstoneJob) -> dict[str, Path]:
@@ -136,7 +146,8 @@ def simulation_params(job: SandstoneJob, source: Source) -> SimulationParams:
             wind=WindParams(azimuth=_given(job.wind_azimuth, wind.azimuth),
                             elevation=_given(job.wind_elevation, wind.elevation),
                             speed=_given(job.wind_speed, wind.speed),
-                            cone_angle=wind.cone_angle, rays=wind.rays),
+                            cone_angle=wind.cone_angle, rays=wind.rays,
+                            rose=() if job.wind_azimuth is not None else wind.rose_pairs()),
             deflation=DeflationParams(alpha=job.alpha, cohesion=rock.cohesion, friction=rock.friction),
             deposition=DepositionParams(repose_angle=job.repose_angle,
                                         deposit_viability=rock.deposit_viability),

@@ -27,7 +27,7 @@ from unerode_cli.sandstone.sampling import (
     scene_particles,
     solid_particles,
 )
-from unerode_cli.sandstone.scene import Scene, Water, Wind
+from unerode_cli.sandstone.scene import RunSettings, Scene, Water, Wind
 
 #: Share of the free memory a run may plan to use.
 MEMORY_SHARE = 0.8
@@ -49,6 +49,7 @@ class Source:
     build: Callable[[int], Particles]
     dem: Terrain | None = None
     water: Water = field(default_factory=Water)
+    run: RunSettings | None = None
 
 
 def scene_path(scene: str) -> Path | None:
@@ -94,7 +95,7 @@ def _scene_source(scene: Scene, description: str, particles: int | None) -> Sour
     except ValueError as exc:
         raise InputError(f"{description}: {str(exc).rstrip('.')}.") from None
     return Source(description, layers, rock, scene.wind, lattice, expected,
-                  lambda seed: scene_particles(scene, lattice, seed), water=scene.water)
+                  lambda seed: scene_particles(scene, lattice, seed), water=scene.water, run=scene.run)
 
 
 def _dem_source(path: Path, base: float, particles: int | None, band: int | None,
