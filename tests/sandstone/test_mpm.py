@@ -85,7 +85,7 @@ def test_cap_loaded_pillar_carries_the_cap() -> None:
 
 def test_a_wide_layer_bonded_to_its_ground_carries_geostatic_stress() -> None:
     """The interior of a layer 30 m wide and 4 m thick on the ground is in uniaxial strain:
-    σ_zz = −ρg(H − z) and σ_xx = σ_yy = ν/(1 − ν)·σ_zz (Jaeger, Cook & Zimmerman 2007, §5.8),
+    σ_zz = −ρg(H − z) and σ_xx = σ_yy = ν/(1 − ν)·σ_zz (Jaeger, Cook & Zimmerman 2007, ch. 5),
     each within 3 %, as a frame's first relaxation leaves it (the geostatic start, default
     tolerance). A layer that slid on its base would keep σ_xx ≈ 0."""
     thickness = 4.0

@@ -194,7 +194,7 @@ def _colours(blocks_x: int, blocks_y: int) -> tuple[np.ndarray, np.ndarray]:
 def lithostatic_guess(particles: Particles, grid: Grid3D, rock: Rock, spacing: float) -> None:
     """Set F (in place) to the geostatic strain of the weight above each particle: the rock
     lies bonded to its ground, so it is strained in uniaxial strain (Jaeger, Cook & Zimmerman
-    2007, §5.8): in each column of ``grid`` (the surface grid, one particle per cell), a particle
+    2007, ch. 5): in each column of ``grid`` (the surface grid, one particle per cell), a particle
     under n others carries σ_zz = −ρ g (n + ½) s, so ε_zz = σ_zz/(λ + 2μ), ε_xx = ε_yy = 0 and
     σ_xx = σ_yy = ν/(1 − ν)·σ_zz.
 
