@@ -210,8 +210,11 @@ class Wind(_Strict):
     from north; 270 is a west wind), ``elevation`` degrees above the horizon, at ``speed`` (m/s);
     ``cone_angle`` (degrees) and ``rays`` set its shelter model (``sandstone.wind``). A ``rose``
     of prevailing winds, ``[{azimuth: 270, weight: 2}, {azimuth: 90, weight: 1}, …]``, replaces
-    ``azimuth``: the wind blows from each for its share of the time."""
+    ``azimuth``: the wind blows from each for its share of the time. ``model``: ``rays`` (exposure
+    by rays cast upwind) or ``flow`` (the local wind of the flow around the rock,
+    ``sandstone.wind_flow``)."""
 
+    model: Literal["rays", "flow"] = "rays"
     azimuth: float = 270.0
     elevation: float = Field(0.0, ge=-90, le=90)
     speed: float = Field(10.0, ge=0)

@@ -3,9 +3,10 @@
 Each frame, in the paper's order: (1) stress by MLS-MPM (warm-started; the first frame settles
 from the lithostatic guess) and the erodibility it implies (Eq. 2); (2) surface particles and
 their normals, recomputed only near last frame's changes (§5.1); (3) wind: deflation (Eq. 12)
-and abrasion (Eq. 8); (4) fluvial: the water's receivers on the MPM grid (§6.2, Fig. 4,
-``water_receivers``), depression routing (``basins``), the discharge (``discharge``) and the
-fluvial rate F of Eq. 14 (``fluvial``), skipped (F = 0) when no layer has k_t > 0; (5) erosion
+and abrasion (Eq. 8), by rays (``wind``) or by the flow around the rock (``wind_flow``);
+(4) fluvial: the water's receivers on the MPM grid (§6.2, Fig. 4, ``water_receivers``),
+depression routing (``basins``), the discharge (``discharge``) and the fluvial rate F of Eq. 14
+(``fluvial``), skipped (F = 0) when no layer has k_t > 0; (5) erosion
 (Eq. 1) of the surface particles, the wind and fluvial rates shielded by the vegetation cover
 (§8.3, ``vegetation``), which then grows on the deposits that stayed; (6) deposition (§7) of
 what eroded: each eroded particle is either deposited on a stable cell or exported out of the
@@ -40,6 +41,7 @@ from unerode_cli.sandstone import (
     viability,
     water_receivers,
     wind,
+    wind_flow,
 )
 from unerode_cli.sandstone.layers import LayerStack, Rock
 from unerode_cli.sandstone.mpm import MpmParams, Relaxation, StressSolver, lithostatic_guess
@@ -65,7 +67,8 @@ class Processes:
 @dataclass(frozen=True)
 class SimulationParams:
     """Everything a run needs besides the particles: ``dt`` the frame's time step (years, 002
-    Table 2: 1000), the stress solver, the wind, deflation, deposition and vegetation parameters,
+    Table 2: 1000), the stress solver, the wind (and, for ``wind.model`` "flow", the flow's
+    ``flow``), deflation, deposition and vegetation parameters,
     the processes that run, and ``neighbours`` the k of the normals (002 §5.1: 20)."""
 
     dt: float = 1000.0
@@ -74,6 +77,7 @@ class SimulationParams:
     deflation: deflation.DeflationParams = field(default_factory=deflation.DeflationParams)
     deposition: deposition.DepositionParams = field(default_factory=deposition.DepositionParams)
     vegetation: vegetation.VegetationParams = field(default_factory=vegetation.VegetationParams)
+    flow: wind_flow.FlowWindParams = field(default_factory=wind_flow.FlowWindParams)
     fluvial: fluvial.FluvialParams = field(default_factory=fluvial.FluvialParams)
     processes: Processes = field(default_factory=Processes)
     neighbours: int = 20
@@ -139,6 +143,7 @@ class Simulation:
         self.water_grid = lattice.mpm_grid()
         self.changes = np.zeros((0, 3))
         self.last_relaxation: Relaxation | None = None
+        self.flows: list[wind_flow.FlowWind] | None = None
 
     def step(self) -> FrameStats:
         """Run one frame (module docstring) and return its record."""
@@ -164,7 +169,9 @@ class Simulation:
         rates = np.zeros(len(p))
         if params.processes.deflation:
             rates += deflation.deflation_rate(on_surface, self.k_d[p.layer], p.stress, params.deflation)
-        if params.processes.abrasion:
+        if params.processes.abrasion and params.wind.model == "flow":
+            rates += self._flow_abrasion(on_surface)
+        elif params.processes.abrasion:
             rates += wind.abrasion_rate(p.positions, p.normals, on_surface, self.surface_grid,
                                         self.k_a[p.layer],
                                         params.wind, self.seed, self.frame)
@@ -196,6 +203,20 @@ class Simulation:
             mpm_residual=relaxation.residual, seconds=seconds,
             eroded_fluvial=int(np.count_nonzero(eroded & (fluvial_rate > rates))),
             discharge_max=discharge_max, fallen=len(fell), fallen_landed=len(landed))
+
+    def _flow_abrasion(self, on_surface: np.ndarray) -> np.ndarray:
+        """Abrasion by the local wind of the flow around the rock (``wind_flow``), one flow per
+        wind of the rose, updated every ``flow.every`` frames."""
+        p, params = self.particles, self.params
+        winds = wind.prevailing(params.wind)
+        if self.flows is None:
+            self.flows = [wind_flow.FlowWind(p.positions, w.blowing, params.flow) for w, _ in winds]
+        elif self.frame % params.flow.every == 0:
+            for flow in self.flows:
+                flow.update(p.positions)
+        k_a = self.k_a[p.layer]
+        return sum(share * wind_flow.flow_abrasion(flow, p.positions, p.normals, on_surface, k_a, w.speed)
+                   for flow, (w, share) in zip(self.flows, winds, strict=True))
 
     def _fluvial(self, on_surface: np.ndarray) -> tuple[np.ndarray, float]:
         """The fluvial rate F of every particle (002 Alg. 1, lines 11–14) and the largest

@@ -36,6 +36,10 @@ GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
 TURN_PER_FRAME = (math.sqrt(5.0) - 1.0) / 2.0
 
 
+#: The wind models of abrasion: rays cast upwind (this module) or the flow around the rock.
+WIND_MODELS = ("rays", "flow")
+
+
 @dataclass(frozen=True)
 class WindParams:
     """The wind of abrasion (002 §5.1).
@@ -52,6 +56,8 @@ class WindParams:
         rays: rays cast per surface particle.
         ray_length: how far upwind (m) an obstacle shelters a particle; ``inf``: up to the
             grid's edge.
+        model: ``"rays"`` (this module: exposure by rays cast upwind) or ``"flow"`` (the local
+            wind of a lattice Boltzmann flow around the rock, ``wind_flow``).
         rose: prevailing winds, pairs (azimuth in degrees, weight > 0); when given, the wind
             blows from each azimuth (at ``elevation`` and ``speed``) for its share of the time,
             weight/Σ weights, and abrasion is the time-weighted sum (``abrasion_rate``), so a
@@ -67,8 +73,11 @@ class WindParams:
     rays: int = 16
     ray_length: float = math.inf
     rose: tuple[tuple[float, float], ...] = ()
+    model: str = "rays"
 
     def __post_init__(self) -> None:
+        if self.model not in WIND_MODELS:
+            raise ValueError(f"the wind model must be one of {', '.join(WIND_MODELS)}, not '{self.model}'")
         for azimuth, weight in self.rose:
             if not (math.isfinite(azimuth) and math.isfinite(weight) and weight > 0.0):
                 raise ValueError(f"a wind rose entry needs a finite azimuth and a weight > 0, not "

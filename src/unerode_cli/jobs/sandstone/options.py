@@ -89,6 +89,10 @@ OPTIONS = (
     Opt("wind_elevation", float, None, "Elevation of the direction the wind comes from (degrees above the "
         "horizon; default: the scene's, 0).", parser=Number("degrees", -90.0, 90.0), panel=PROCESSES,
         record=False),
+    Opt("wind_model", str, None, "How abrasion sees the wind: rays (exposure by rays cast upwind) or flow "
+        "(the local wind of a lattice Boltzmann flow around the rock: speed-up at edges, wakes, "
+        "recirculation; slower). Default: the scene's, rays.", choices=("rays", "flow"), panel=PROCESSES,
+        record=False),
     Opt("wind_speed", float, None, "Free wind speed U of abrasion (m/s; default: the scene's, 10).",
         parser=Number("m/s", 0.0), panel=PROCESSES, record=False),
     Opt("alpha", float, 1e6, "Rayleigh scale α of the normal drag of deflation (Pa; 002 Eq. 11-12 gives "

@@ -147,7 +147,8 @@ def simulation_params(job: SandstoneJob, source: Source) -> SimulationParams:
                             elevation=_given(job.wind_elevation, wind.elevation),
                             speed=_given(job.wind_speed, wind.speed),
                             cone_angle=wind.cone_angle, rays=wind.rays,
-                            rose=() if job.wind_azimuth is not None else wind.rose_pairs()),
+                            rose=() if job.wind_azimuth is not None else wind.rose_pairs(),
+                            model=_given(job.wind_model, wind.model)),
             deflation=DeflationParams(alpha=job.alpha, cohesion=rock.cohesion, friction=rock.friction),
             deposition=DepositionParams(repose_angle=job.repose_angle,
                                         deposit_viability=rock.deposit_viability),
@@ -158,7 +159,7 @@ def simulation_params(job: SandstoneJob, source: Source) -> SimulationParams:
         raise InputError(f"{str(exc).rstrip('.')}.") from None
 
 
-def _given(value: float | None, default: float) -> float:
+def _given(value: Any, default: Any) -> Any:
     return default if value is None else value
 
 
