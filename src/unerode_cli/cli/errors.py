@@ -64,14 +64,13 @@ def _joined(message: str, note: str) -> str:
 
 def _written_note(plan: OutputPlan) -> str:
     """'; N file(s) had been written and are kept: a, b (rerun with …)' naming each file written
-    once ('' when none); the hint names the job's --resume where that continues the run (it left
-    a checkpoint) and always --overwrite, which starts it again."""
+    once ('' when none); the rerun hint is the job's --resume where that continues the run (it
+    left a checkpoint), else --overwrite."""
     written = plan.written_once()
     if not written:
         return ""
     if plan.can_resume():
-        hint = (f"rerun with {plan.resume_flag} to continue where it stopped, "
-                "or with --overwrite to start again")
+        hint = f"rerun with {plan.resume_flag} to continue where it stopped"
     else:
         hint = "rerun with --overwrite to replace them"
     return f"; {len(written)} file(s) had been written and are kept: {', '.join(map(str, written))} ({hint})."
