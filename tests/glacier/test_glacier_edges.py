@@ -19,10 +19,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from tests.conftest import SHARED_DATA
+from tests.glacier.test_glacier_plausibility import grindelwald_run
 
 from unerode_cli.glacier import coupled
 from unerode_cli.hydro import outlet_mask
-from unerode_cli.io.rasters import read_terrain
 
 GRINDELWALD = SHARED_DATA / "dem" / "alps_grindelwald" / "dem.tif"
 WINDOW = (slice(216, 344), slice(100, 228))
@@ -32,12 +32,8 @@ BAND = 500.0  # m
 @pytest.mark.slow
 @pytest.mark.skipif(not GRINDELWALD.exists(), reason="needs ../shared/data/dem/alps_grindelwald")
 def test_the_edge_band_erodes_no_more_than_the_interior_on_a_crop():
-    terrain = read_terrain(GRINDELWALD)
-    bed0 = terrain.elevation[WINDOW].copy()
-    grid = type(terrain.grid).full(bed0.shape, terrain.dx, terrain.dy)
-    params = coupled.CoupledParams(edge_cells=outlet_mask(grid), flow_rtol=0.03)
-    result = coupled.run(coupled.GlacierState(bed0, np.zeros_like(bed0)), grid, params, 2900.0,
-                         coupled.step_times(2000.0, 50.0))
+    terrain, bed0, grid, params, result = grindelwald_run(
+        WINDOW, lambda grid: coupled.CoupledParams(edge_cells=outlet_mask(grid), flow_rtol=0.03))
     final = result.state
     flow = coupled.flow_field(final.bed, final.thickness, grid, params, warm=final.lattice)
     ny, nx = bed0.shape

@@ -49,15 +49,23 @@ def plausibility(bed0: np.ndarray, state: coupled.GlacierState, flow: coupled.Fl
     }
 
 
+def grindelwald_run(window: tuple[slice, slice], params_for) -> tuple:
+    """2000 y of glaciers (ELA 2900 m, 50-year steps, from no ice) on the ``window`` crop of the
+    Grindelwald DEM, with the parameters ``params_for(grid)`` (``coupled.CoupledParams``):
+    (terrain, initial bed, grid, parameters, ``coupled.run``'s result)."""
+    terrain = read_terrain(GRINDELWALD)
+    bed0 = terrain.elevation[window].copy()
+    grid = type(terrain.grid).full(bed0.shape, terrain.dx, terrain.dy)
+    params = params_for(grid)
+    result = coupled.run(coupled.GlacierState(bed0, np.zeros_like(bed0)), grid, params, 2900.0,
+                         coupled.step_times(2000.0, 50.0))
+    return terrain, bed0, grid, params, result
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not GRINDELWALD.exists(), reason="needs ../shared/data/dem/alps_grindelwald")
 def test_grindelwald_glaciers_move_and_erode_at_measured_rates():
-    terrain = read_terrain(GRINDELWALD)
-    bed0 = terrain.elevation[WINDOW].copy()
-    grid = type(terrain.grid).full(bed0.shape, terrain.dx, terrain.dy)
-    params = coupled.CoupledParams()
-    result = coupled.run(coupled.GlacierState(bed0, np.zeros_like(bed0)), grid, params, 2900.0,
-                         coupled.step_times(2000.0, 50.0))
+    terrain, bed0, grid, params, result = grindelwald_run(WINDOW, lambda grid: coupled.CoupledParams())
     final = result.state
     flow = coupled.flow_field(final.bed, final.thickness, grid, params, warm=final.lattice)
     got = plausibility(bed0, final, flow, terrain.dx, final.time)
