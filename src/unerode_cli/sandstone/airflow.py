@@ -12,10 +12,11 @@ Set-up (lattice units: cell 1, step 1): ``solid`` voxels (the rock) reflect by h
 bounce-back (no slip); the ground below the grid reflects specularly (free slip, no boundary
 layer); every other face of the domain is far field: the populations entering from it are those
 of the free wind (equilibrium at density 1, velocity ``u_lattice``·d), also where the wind
-leaves. The kinematic viscosity follows from the Reynolds number Re = u·L/ν of the rock's width L (cells): τ = ½ + 3ν. Real
-winds around rocks have Re ~ 10⁶–10⁷; a BGK lattice stays stable down to τ ≈ 0.52, so the flow
-here is that of a moderate Re (~ 100, ``MIN_TAU``): laminar, with a steady recirculating wake behind a
-bluff body — the same topology as the time-averaged turbulent wake, shorter and weaker.
+leaves. The kinematic viscosity follows from the Reynolds number Re = u·L/ν of the rock's
+width L (cells): τ = ½ + 3ν. Real winds around rocks have Re ~ 10⁶–10⁷; a BGK lattice stays
+stable down to τ ≈ 0.52, so the flow here is that of a moderate Re (~ 100, ``MIN_TAU``):
+laminar, with a steady recirculating wake behind a bluff body — the same topology as the
+time-averaged turbulent wake, shorter and weaker.
 
 Validation (``tests/sandstone/test_airflow.py``): the drag coefficient of a sphere at Re = 100,
 C_d = 1.09 (Clift, Grace & Weber 1978; Schiller–Naumann), and its recirculation length behind
