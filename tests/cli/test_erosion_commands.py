@@ -71,7 +71,7 @@ def test_erode_then_unerode_writes_everything(tmp_path: Path, ramp: Path) -> Non
 
 
 def test_cfl_substeps_or_refusal(tmp_path: Path, ramp: Path) -> None:
-    args = ["--dt", 1e5, "--steps", 1, "--outlets", "S", "--K", "1e-3"]
+    args = ["--dt", 1e5, "--steps", 1, "--outlets", "S", "--K", "1e-3", "--scheme", "explicit"]
     result = run_cli("erode", ramp, tmp_path / "a.tif", *args)
     assert result.returncode == 0, result.stderr
     assert "sub-step" in result.stderr
@@ -79,6 +79,20 @@ def test_cfl_substeps_or_refusal(tmp_path: Path, ramp: Path) -> None:
     assert sidecar["statistics"]["substeps"]["fluvial"] > 1
     out = tmp_path / "b.tif"
     assert_refused(run_cli("erode", ramp, out, *args, "--no-substep"), out, "unstable")
+
+
+def test_the_implicit_default_takes_any_step_whole(tmp_path: Path, ramp: Path) -> None:
+    # the step the explicit scheme splits above is one implicit step, even with --no-substep
+    args = ["--dt", 1e5, "--steps", 1, "--outlets", "S", "--K", "1e-3", "--no-substep"]
+    result = run_cli("erode", ramp, tmp_path / "a.tif", *args)
+    assert result.returncode == 0, result.stderr
+    assert "sub-step" not in result.stderr
+    sidecar = json.loads((tmp_path / "a.tif.json").read_text())
+    assert sidecar["parameters"]["scheme"] == "implicit"
+    assert sidecar["statistics"]["substeps"]["fluvial"] == 1
+    assert sidecar["statistics"]["fluvial_implicit_passes"] >= 2
+    budget = sidecar["statistics"]["mass_budget_m3"]["fluvial"]
+    assert abs(budget["residual"]) <= 1e-9 * budget["eroded"]
 
 
 def test_bad_parameter_rasters(tmp_path: Path, ramp: Path) -> None:

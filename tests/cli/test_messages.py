@@ -172,7 +172,8 @@ VERBOSITY_RUNS = {
     # each run gives at least one note: an unsorted chronology, sub-steps, no --source
     "climate-run": ["climate-run", "{dem}", "{out}", "--chronology", "{unsorted}", "--to", "2",
                     "--process", "fluvial"],
-    "erode": ["erode", "{dem}", "{out}", "--steps", "2", "--dt", "1e6", "--K", "1e-3"],
+    "erode": ["erode", "{dem}", "{out}", "--steps", "2", "--dt", "1e6", "--K", "1e-3",
+              "--scheme", "explicit"],
     "particle-erode": ["particle-erode", "{dem}", "{out}", "--particles", "20", "--iterations", "2",
                        "--emission", "source"],
 }

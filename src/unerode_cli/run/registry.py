@@ -11,11 +11,11 @@ from typing import Any
 
 import numpy as np
 
-from unerode_cli.errors import InputError
+from unerode_cli.errors import InputError, RunFailure
 from unerode_cli.io.inflow_files import read_inflow
 from unerode_cli.io.parameter_file import read_parameter_file
 from unerode_cli.io.terrain import Terrain
-from unerode_cli.processes import debris, fluvial, hillslope, thermal, thermal_ca
+from unerode_cli.processes import debris, fluvial, fluvial_implicit, hillslope, thermal, thermal_ca
 from unerode_cli.processes.budget import MassBudget
 from unerode_cli.processes.inflow import InflowHistory
 from unerode_cli.processes.parameters import UPLIFT, ParamSpec
@@ -70,18 +70,28 @@ def _change(dh: np.ndarray, budget: MassBudget) -> Change:
 class FluvialProcess:
     """Fluvial erosion/deposition (000 §3).
 
-    The stability check computes the step itself and reads the CFL bound off its discharge;
-    the step is kept, so that ``advance`` with the same elevation and dt (no sub-steps, the
-    usual case) costs nothing more. A step that needs sub-steps wastes that one step.
-    ``inflow``: rivers entering the map (000 §6.3.1), or None.
+    Forward steps are ``forward``: ``"implicit"`` (``fluvial_implicit``, stable at any dt, so
+    never sub-stepped) or ``"explicit"`` (``fluvial.step``, sub-stepped to its CFL bound);
+    backward steps are explicit with the slope ``scheme``. The explicit stability check
+    computes the step itself and reads the CFL bound off its discharge; the step is kept, so
+    that ``advance`` with the same elevation and dt (no sub-steps, the usual case) costs
+    nothing more. A step that needs sub-steps wastes that one step. ``inflow``: rivers entering
+    the map (000 §6.3.1), or None. ``passes`` counts the passes of the implicit steps'
+    deposition iteration, which starts from the previous step's deposition rates.
     """
 
     surface: Surface
     params: fluvial.FluvialParams
     scheme: str = "limiter"
     inflow: fluvial.Inflow | None = None
+    forward: str = "explicit"
     name: str = "fluvial"
+    passes: int = 0
     _last: tuple[Any, float, fluvial.FluvialChange] | None = field(default=None, repr=False)
+    _deposition: np.ndarray | None = field(default=None, repr=False)
+
+    def _implicit(self, dt: float) -> bool:
+        return dt > 0.0 and self.forward == "implicit"
 
     def _step(self, elevation: np.ndarray, dt: float) -> tuple[Any, fluvial.FluvialChange]:
         # The surface hands out the same routing object as long as the elevation is unchanged,
@@ -91,13 +101,58 @@ class FluvialProcess:
         if last is not None and last[0] is routing and last[1] == dt:
             return routing, last[2]
         # the parameters (frozen) are checked on the first step; later steps skip that scan
-        change = fluvial.step(elevation, self.surface.terrain.grid, routing.outlets, self.params,
-                              dt, routing=routing, scheme=self.scheme, inflow=self.inflow,
-                              validated=last is not None)
+        grid = self.surface.terrain.grid
+        if self._implicit(dt):
+            change = self._implicit_step(elevation, dt, routing, last is not None)
+        else:
+            change = fluvial.step(elevation, grid, routing.outlets, self.params, dt, routing=routing,
+                                  scheme=self.scheme, inflow=self.inflow, validated=last is not None)
         self._last = (routing, dt, change)
         return routing, change
 
+    def _implicit_step(self, elevation: np.ndarray, dt: float, routing: Any, validated: bool,
+                       depth: int = 0) -> fluvial.FluvialChange:
+        """An implicit step; one whose deposition iteration does not converge is done again
+        as two half steps (each routed anew), down to 1/256 of it."""
+        grid = self.surface.terrain.grid
+        done = fluvial_implicit.step(elevation, grid, routing.outlets, self.params, dt,
+                                     routing=routing, inflow=self.inflow, validated=validated,
+                                     deposition=self._deposition)
+        self.passes += done.passes
+        self._deposition = done.deposition
+        if done.converged or depth == 8:
+            if not done.converged:
+                raise RunFailure(f"the implicit fluvial step did not converge (deposition still "
+                                 f"changing by {done.residual:.3g}× its tolerance after "
+                                 f"{done.passes} passes at a step of {dt:g} years).")
+            return done.change
+        half = 0.5 * dt
+        first = self._implicit_step(elevation, half, routing, True, depth + 1)
+        middle = elevation + first.dh
+        second = self._implicit_step(middle, half, self.surface.routing(middle), True, depth + 1)
+        return _joined(first, second, half)
+
+    def state(self) -> dict[str, Any]:
+        """What a resumed run needs to go on bit for bit: the deposition rates the next
+        implicit step starts from, and the passes counted."""
+        kept = {"passes": self.passes}
+        if self._deposition is not None:
+            kept["deposition"] = self._deposition
+        return kept
+
+    def restore(self, state: dict[str, Any]) -> None:
+        self.passes = int(state.get("passes", 0))
+        deposition = state.get("deposition")
+        self._deposition = None if deposition is None else np.array(deposition, dtype=np.float64)
+
     def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        if self._implicit(dt):
+            # any step is stable; one whose coefficients overflow has none (NaN)
+            try:
+                self._step(elevation, dt)
+            except FloatingPointError:
+                return float("nan")
+            return float("inf")
         routing, change = self._step(elevation, dt)
         return fluvial.max_stable_dt(elevation, self.surface.terrain.grid, self.params, routing,
                                      discharge=change.discharge, validated=True)
@@ -113,6 +168,17 @@ class FluvialProcess:
             return None
         change = self._last[2]
         return change.discharge, change.sediment_flux
+
+
+def _joined(first: fluvial.FluvialChange, second: fluvial.FluvialChange,
+            dt: float) -> fluvial.FluvialChange:
+    """Two consecutive changes of ``dt`` years each as one: Δh and volumes add up, the fluxes
+    are their means."""
+    a, b = first.budget, second.budget
+    budget = MassBudget(a.eroded + b.eroded, a.deposited + b.deposited, a.outflux + b.outflux,
+                        a.inflow + b.inflow)
+    return fluvial.FluvialChange(first.dh + second.dh, 0.5 * (first.sediment_flux + second.sediment_flux),
+                                 0.5 * (first.discharge + second.discharge), budget)
 
 
 @dataclass
@@ -207,7 +273,7 @@ REGISTRY: dict[str, Registered] = {
         lambda t, b, v, o: FluvialProcess(
             _surface(t, b, o.get("method", "mfd")),
             fluvial.FluvialParams(**_values(fluvial.PARAMETERS, v)), o.get("scheme", "limiter"),
-            o.get("inflow")),
+            o.get("inflow"), o.get("forward", "explicit")),
         "fluvial erosion with sediment deposition (000 §3)",
     ),
     "thermal": Registered(

@@ -15,7 +15,7 @@ from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
-from unerode_cli.jobs.erode.options import OPTIONS
+from unerode_cli.jobs.erode.options import BACKWARD_SCHEMES, FORWARD_SCHEMES, OPTIONS
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import boundaries_from_options
 from unerode_cli.run.declare import declared
@@ -147,7 +147,11 @@ class ErosionSteps:
                 "substeps": report.substeps, "noted": sorted(self.applier.noted),
                 "budgets": {name: [b.eroded, b.deposited, b.outflux, b.inflow]
                             for name, b in report.budgets.items()},
-                "snapshots": [str(p) for p in self.snapshots]}
+                "snapshots": [str(p) for p in self.snapshots],
+                # a process's own state (the implicit fluvial step's deposition rates), flat, so
+                # that arrays are saved as arrays
+                **{f"process.{p.name}.{key}": value for p in self.prepared.processes
+                   if hasattr(p, "state") for key, value in p.state().items()}}
 
     def restore(self, state: dict[str, Any]) -> None:
         report = self.applier.report
@@ -157,6 +161,11 @@ class ErosionSteps:
         report.budgets = {name: Budget(*values) for name, values in state["budgets"].items()}
         self.applier.noted = set(state["noted"])
         self.snapshots = [Path(p) for p in state["snapshots"]]
+        for process in self.prepared.processes:
+            if hasattr(process, "restore"):
+                prefix = f"process.{process.name}."
+                process.restore({key[len(prefix):]: value for key, value in state.items()
+                                 if key.startswith(prefix)})
 
 
 def step_count(dt: float, duration: float | None, steps: int | None) -> int:
@@ -184,6 +193,20 @@ def step_count(dt: float, duration: float | None, steps: int | None) -> int:
 def change_preview_path(change_map: Path) -> Path:
     """``dh.tif`` → ``dh.png``: the change map's preview, written when --preview is given."""
     return change_map.with_suffix(".png")
+
+
+def schemes_of(job: ErosionJob) -> tuple[str, str]:
+    """(forward fluvial scheme, backward slope scheme) of --scheme, refused (InputError) when
+    it names a scheme of the other direction."""
+    if job.backward:
+        if job.scheme in FORWARD_SCHEMES:
+            raise InputError(f"--scheme {job.scheme} is a forward scheme of erode; unerode takes "
+                             f"{' or '.join(BACKWARD_SCHEMES)}.")
+        return "explicit", job.scheme or "limiter"
+    if job.scheme in BACKWARD_SCHEMES:
+        raise InputError(f"--scheme {job.scheme} sets the slope of backward steps (unerode); erode takes "
+                         f"{' or '.join(FORWARD_SCHEMES)}.")
+    return job.scheme or "implicit", "limiter"
 
 
 def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob:
@@ -221,7 +244,8 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
     outputs.check_source(terrain, job.source)
     bounds = boundaries_from_options(terrain, job.outlets, job.sea_level, job.dirichlet)
     given = given_values(job.params, job.parameter_values(), names)
-    options = {"scheme": job.scheme, "method": job.method,
+    forward, scheme = schemes_of(job)
+    options = {"scheme": scheme, "forward": forward, "method": job.method,
                "constraints": thermal_constraints(job.thermal_constraints),
                "inflow": inflow_for(job.inflow, names, terrain, bounds)}
     values: dict[str, Any] = {}
@@ -264,6 +288,10 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
     output.tags[TIME_TAG] = repr(report.elapsed_years)
     change = process_change(terrain, result.elevation, prepared, report)
     stats = _statistics(report, change, result.wall_s, result.snapshots)
+    passes = [p.passes for p in prepared.processes if getattr(p, "passes", 0)]
+    if passes:
+        # passes of the implicit fluvial steps' deposition iteration (each converged)
+        stats["fluvial_implicit_passes"] = passes[0]
     save(output, prepared.outputs, job.command, _provenance(prepared), stats)
     if job.change_map is not None:
         layer = terrain.with_elevation(change)
@@ -290,7 +318,9 @@ def process_change(
 def _provenance(prepared: PreparedJob) -> dict[str, Any]:
     """The job's recorded options, what the plan derived from them (step length and count,
     direction) and the value of every parameter of its processes."""
-    return {**prepared.job.provenance(), "dt_years": prepared.dt, "steps": prepared.steps,
+    forward, backward = schemes_of(prepared.job)
+    return {**prepared.job.provenance(), "scheme": backward if prepared.job.backward else forward,
+            "dt_years": prepared.dt, "steps": prepared.steps,
             "direction": "backward" if prepared.job.backward else "forward", **prepared.parameters}
 
 

@@ -20,6 +20,11 @@ from unerode_cli.run.common_options import (
 from unerode_cli.run.declare import Opt, parameter_options
 from unerode_cli.run.process_options import INFLOW, PARAMETER_PANELS
 
+#: --scheme's choices: the forward fluvial schemes of erode, the backward slopes of unerode
+FORWARD_SCHEMES = ("implicit", "explicit")
+BACKWARD_SCHEMES = ("limiter", "upwind")
+SCHEMES = FORWARD_SCHEMES + BACKWARD_SCHEMES
+
 PROCESS_HELP = ("Process(es), comma-separated, applied in this order within each step (operator "
                 "splitting): fluvial, thermal, thermal-ca (forward only), hillslope (forward only), "
                 "debris (forward only).")
@@ -43,8 +48,10 @@ OPTIONS = (
         parser=POSITIVE_YEARS, record=False),
     Opt("change_map", Path, None, "Write the signed change (m) due to the processes (uplift excluded): "
         "< 0 erosion, > 0 deposition.", role="output", record=False),
-    Opt("scheme", str, "limiter", "Slope of backward fluvial and thermal steps: limiter (000 Eq. 12) or "
-        "upwind (Eq. 10).", choices=("limiter", "upwind")),
+    Opt("scheme", str, None, "Fluvial scheme. erode: implicit (default; Braun & Willett 2013 with "
+        "Yuan et al. 2019's deposition, stable at any --dt) or explicit (000 Eq. 9, sub-stepped to its CFL "
+        "bound). unerode: the slope of backward fluvial and thermal steps, limiter (default; 000 Eq. 12) or "
+        "upwind (Eq. 10).", choices=SCHEMES),
     Opt("thermal_constraints", str, ",".join(thermal.CONSTRAINTS), "Un-deposition constraints of "
         "thermal unerosion (000 §4.2): any of slope (Eq. 16), convexity (Eq. 17), rate (max "
         "un-deposition), or none."),

@@ -1,0 +1,250 @@
+"""Numba kernels of the implicit forward fluvial step (Braun & Willett 2013; Yuan et al. 2019).
+
+Fields (uplift, erodibility, K_d) are flat float64 arrays of size ny*nx, or of size 1 for a
+value that is the same everywhere. Per-cell work arrays go by position in ``Routing.order``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from unerode_cli.hydro.kernels import flow_fractions, inverse_distances, neighbour_offsets, spread
+
+#: Bisection–Newton iterations of one cell's equation for n ≠ 1 (each at least halves the
+#: bracket, so 200 reach the last bit of any float64 bracket).
+CELL_ITERATIONS = 200
+
+
+@numba.njit(cache=True, inline="always")
+def _at(field, i):
+    """Value of a scalar-or-raster field at flat index ``i``."""
+    return field[0] if field.size == 1 else field[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _incision(h, hr, a, count, n):
+    """S(h)^n with S(h) = Σ_k a_k·max(0, h − hr_k) (m/m): the receiver-weighted slope of a cell
+    at elevation ``h`` above its ``count`` receivers at elevations ``hr`` (a_k = w_k / L_k,
+    1/m), and its derivative d(S^n)/dh."""
+    s = 0.0
+    ds = 0.0
+    for k in range(count):
+        if h > hr[k]:
+            s += a[k] * (h - hr[k])
+            ds += a[k]
+    if s <= 0.0:
+        return 0.0, 0.0
+    if n == 1.0:
+        return s, ds
+    power = s**n
+    return power, n * power / s * ds
+
+
+@numba.njit(cache=True)
+def solve_cell(base, hr, a, count, coef, n):
+    """Elevation h (m) at the end of the step of a cell that solves
+
+        h = base − coef·S(h)^n,   S(h) = Σ_k a_k·max(0, h − hr_k)            (000 Eq. 1, implicit)
+
+    where ``base`` = h(t) + dt·(U + D) (m), ``coef`` = K·Q^m·dt and ``hr`` the receivers'
+    elevations at the end of the step (Braun & Willett 2013, Eq. 20–23, with several receivers
+    weighted by a_k = w_k / L_k). The left side minus the right is increasing in h, so the root
+    is unique and lies in [min hr, base]; with n = 1 it is found exactly on the set of receivers
+    below it, else by Newton steps kept inside a shrinking bracket (bisection where a step
+    leaves it). A cell at or below all its receivers is not incised (h = base)."""
+    low = math.inf
+    for k in range(count):
+        low = min(low, hr[k])
+    if count == 0 or coef <= 0.0 or base <= low:
+        return base
+    if n == 1.0:
+        # the receivers below the root are those below the candidate; drop the highest above it
+        h = base
+        for _ in range(count + 1):
+            weight = 0.0
+            pulled = 0.0
+            for k in range(count):
+                if hr[k] < h:
+                    weight += a[k]
+                    pulled += a[k] * hr[k]
+            candidate = (base + coef * pulled) / (1.0 + coef * weight)
+            settled = True
+            for k in range(count):
+                if hr[k] < h and hr[k] >= candidate:
+                    settled = False
+            h = candidate
+            if settled:
+                return h
+        return h
+    lo = low
+    hi = base
+    h = base
+    for _ in range(CELL_ITERATIONS):
+        power, slope = _incision(h, hr, a, count, n)
+        f = h - base + coef * power
+        if f > 0.0:
+            hi = h
+        else:
+            lo = h
+        derivative = 1.0 + coef * slope
+        step = h - f / derivative
+        h = step if lo < step < hi else 0.5 * (lo + hi)
+        if hi - lo <= 1e-13 * max(abs(hi), 1.0) or f == 0.0:
+            break
+    return h
+
+
+@numba.njit(cache=True)
+def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, n, m, k_d, uplift, dt,
+                        qs_in, rtol, atol, max_iter, hn, qs, dep, coef):
+    """One implicit forward step of 000 Eq. 3 (dt > 0).
+
+    Stream power, implicit in the new elevations (Braun & Willett 2013): in a pass over the
+    cells, receivers first, each cell's end-of-step elevation solves ``solve_cell`` with its
+    receivers' end-of-step elevations, so any dt is stable. Deposition, the (K_d/Q)·Q̃s term,
+    is iterated as in Yuan et al. (2019, §3.2): given the deposition rates D, the receivers-first
+    pass gives the elevations; a donors-first pass then carries the sediment flux down
+    (Q̃s arriving, Qs = Q̃s + (U − Δh/dt)·A leaving, exactly what the cell lost) and sets the new
+    D = Q̃s·min(K_d/Q, 1/A) (000 Eq. 8, capped as the explicit step is); the passes repeat
+    until D·dt changes by at most max(``atol``, ``rtol``·max|Δh|) (m) on every cell, or
+    ``max_iter`` passes. Where the largest change has not halved in three passes, the rates are
+    under-relaxed (D ← D + ω·(D_new − D), ω halved each time, down to 1/64).
+
+    The sediment fluxes of the last pass follow from the elevations, so the mass budget holds
+    to rounding whatever the iteration count; a leaving flux that would be negative (more
+    deposited than arrived, only before convergence) is set to 0 and its volume returned.
+
+    Args:
+        h0: float64[ny*nx] elevation at the start (m).
+        zf, outlets, order, dx, dy, single: the routing of ``h0`` (``unerode_cli.hydro``); the
+            receivers and their weights are those of ``zf``, kept through the step.
+        q: float64[ny*nx] discharge Q (m³/y).
+        gradient: float64[ny*nx] |∇h| of ``h0`` (000 Eq. 9) to which each cell's weighted
+            receiver slope is scaled at the start of the step, or float64[0] for none (D8).
+        k: field K; n, m: exponents; k_d: field K_d (m/y); uplift: field U (m/y); dt: step (y).
+        qs_in: float64[ny*nx] sediment flux entering each cell from outside the map (m³/y).
+        rtol, atol: the iteration ends when no D·dt changed by more than max(atol, rtol times
+            the largest |Δh| of the pass) (m).
+        max_iter: most passes.
+        hn: float64[ny*nx] set to the elevation at the end of the step (outlets: h0).
+        qs: float64[ny*nx] set to the sediment flux Qs leaving each cell (m³/y; outlets: what
+            leaves the map there).
+        dep: float64[ny*nx] deposition rates D (m/y): on entry the first guess (e.g. the
+            previous step's, or 0), on return those of the last pass.
+        coef: float64[order.size] work array.
+
+    Returns:
+        (passes, largest change of D·dt in the last pass ÷ the tolerance it had to meet (≤ 1:
+        converged; 0 without deposition), volume rate set to 0 on negative fluxes (m³/y)).
+    """
+    ny, nx = zf.shape
+    z = zf.ravel()
+    out = outlets.ravel()
+    off = neighbour_offsets(nx)
+    inv_dist = inverse_distances(dx, dy)
+    area = dx * dy
+    inv_area = 1.0 / area
+    frac = np.empty(8, dtype=np.float64)
+    hr = np.empty(8, dtype=np.float64)
+    a = np.empty(8, dtype=np.float64)
+    size = order.size
+    depositing = False
+    scaled = gradient.size > 0
+    for p in range(size):
+        i = order[p]
+        water = q[i]
+        c = _at(k, i) * math.exp2(m * math.log2(water)) * dt if water > 0.0 else 0.0
+        if z[i] > h0[i]:
+            # under a lake of the routing surface (or raised across a flat): the water stands,
+            # the sediment settles, nothing is incised
+            c = 0.0
+        if scaled and c > 0.0 and not out[i]:
+            flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+            weighted = 0.0
+            for kk in range(8):
+                if frac[kk] > 0.0:
+                    weighted += frac[kk] * inv_dist[kk] * max(h0[i] - h0[i + off[kk]], 0.0)
+            if weighted > 0.0:
+                ratio = gradient[i] / weighted
+                c *= ratio if n == 1.0 else ratio**n
+        coef[p] = c
+        depositing = depositing or _at(k_d, i) > 0.0
+    passes = 0
+    ratio = 0.0
+    clipped = 0.0
+    relax = 1.0
+    previous = math.inf
+    stalled = 0
+    for _ in range(max_iter):
+        passes += 1
+        for p in range(size - 1, -1, -1):
+            i = order[p]
+            if out[i]:
+                hn[i] = h0[i]
+                continue
+            base = h0[i] + dt * (_at(uplift, i) + dep[i])
+            flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+            count = 0
+            for kk in range(8):
+                if frac[kk] > 0.0:
+                    hr[count] = hn[i + off[kk]]
+                    a[count] = frac[kk] * inv_dist[kk]
+                    count += 1
+            hn[i] = solve_cell(base, hr, a, count, coef[p], n)
+        change = 0.0
+        clipped = 0.0
+        largest = 0.0
+        for i in range(qs.size):
+            qs[i] = qs_in[i]
+        for p in range(size):
+            i = order[p]
+            arriving = qs[i]
+            if out[i]:
+                continue
+            interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+            if depositing:
+                # the deposition of the sediment arriving now, and the cell solved again with
+                # it: sediment news travel down in this pass as base-level news travel up in
+                # the other (a symmetric Gauss–Seidel sweep)
+                water = q[i]
+                kd = _at(k_d, i)
+                if water > 0.0:
+                    trapping = min(kd / water, inv_area)
+                else:
+                    trapping = inv_area if kd > 0.0 else 0.0
+                fresh = arriving * trapping
+                change = max(change, abs(fresh - dep[i]) * dt)
+                dep[i] += relax * (fresh - dep[i])
+                count = 0
+                for kk in range(8):
+                    if frac[kk] > 0.0:
+                        hr[count] = hn[i + off[kk]]
+                        a[count] = frac[kk] * inv_dist[kk]
+                        count += 1
+                hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
+            lost = _at(uplift, i) - (hn[i] - h0[i]) / dt
+            largest = max(largest, abs(hn[i] - h0[i]))
+            leaving = arriving + lost * area
+            if leaving < 0.0:
+                clipped -= leaving
+                leaving = 0.0
+            qs[i] = leaving
+            spread(qs, i, off, frac, leaving, interior)
+        tol = max(atol, rtol * largest)
+        ratio = change / tol
+        if change <= tol:
+            break
+        if change < 0.5 * previous:
+            previous = change
+            stalled = 0
+        else:
+            stalled += 1
+        if stalled == 3:
+            # the rates overshoot or cycle (deposition raising a cell above its receivers, whose
+            # incision then sends the sediment on): under-relax them, down to 1/64
+            relax = max(0.5 * relax, 1.0 / 64.0)
+            stalled = 0
+    return passes, ratio, clipped
