@@ -122,13 +122,7 @@ def step(
     discharge = np.zeros(shape, dtype=np.float64)
     accumulate_into(routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single,
                     sources, discharge.ravel())
-    if routing.single:
-        gradient = np.empty(0, dtype=np.float64)
-    else:
-        from unerode_cli.processes import fluvial_kernels as fk
-
-        gradient = scratch("fluvial_implicit.gradient", (h0.size,), np.float64)
-        fk.slope_into(h0.reshape(shape), grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM, gradient)
+    gradient = _gradient(h0.reshape(shape), grid, routing.single)
     k = flat_field(params.k, shape, "k")
     q_max = float(discharge.max(initial=0.0))
     if not np.isfinite(float(k.max(initial=0.0)) * q_max ** float(params.m) * dt):
@@ -145,17 +139,35 @@ def step(
         rates.ravel(),
         scratch("fluvial_implicit.coef", routing.order.shape, np.float64),
     )
-    free = grid.valid & ~routing.outlets
-    dh = np.where(free, new.reshape(shape) - elevation, 0.0)
-    # net loss rate U − Δh/dt (m/y): erosion where > 0, deposition where < 0
-    lost = np.where(free, (uplift[0] if uplift.size == 1 else uplift.reshape(shape)) - dh / dt, 0.0)
+    dh = np.where(grid.valid & ~routing.outlets, new.reshape(shape) - elevation, 0.0)
+    budget = _budget(dh, dt, uplift, grid, routing.outlets, sediment_flux, sediment_in)
+    change = FluvialChange(dh, sediment_flux, discharge, budget)
+    return ImplicitStep(change, int(passes), float(residual), rates)
+
+
+def _gradient(h: np.ndarray, grid: Grid, single: bool) -> np.ndarray:
+    """|∇h| of 000 Eq. 9 (float64[ny*nx]) to which MFD's weighted receiver slopes are scaled,
+    or float64[0] with D8 (no scaling)."""
+    from unerode_cli.hydro.routing import scratch
+    from unerode_cli.processes import fluvial_kernels as fk
+
+    if single:
+        return np.empty(0, dtype=np.float64)
+    gradient = scratch("fluvial_implicit.gradient", (h.size,), np.float64)
+    fk.slope_into(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM, gradient)
+    return gradient
+
+
+def _budget(dh: np.ndarray, dt: float, uplift: np.ndarray, grid: Grid, outlets: np.ndarray,
+            sediment_flux: np.ndarray, sediment_in: np.ndarray) -> MassBudget:
+    """The step's volumes (m³): eroded and deposited from the net loss U − Δh/dt of the free
+    cells, the outflux from the fluxes leaving at the outlets. A flux set to 0 where more was
+    deposited than arrived (before convergence) shows as a residual; it is not hidden in a term."""
+    free = grid.valid & ~outlets
+    lost = np.where(free, (uplift[0] if uplift.size == 1 else uplift.reshape(dh.shape)) - dh / dt, 0.0)
     area = grid.cell_area
     eroded = float(np.sum(np.maximum(lost, 0.0), dtype=np.float64)) * area
     deposited = float(np.sum(np.maximum(-lost, 0.0), dtype=np.float64)) * area
-    outflow = float(np.sum(sediment_flux[routing.outlets], dtype=np.float64))
+    outflow = float(np.sum(sediment_flux[outlets], dtype=np.float64))
     brought = float(np.sum(sediment_in, dtype=np.float64))
-    # a flux set to 0 where more was deposited than arrived (``clipped``, before convergence)
-    # shows as a budget residual: it is not hidden in a term
-    budget = MassBudget(dt * eroded, dt * deposited, dt * outflow, dt * brought)
-    change = FluvialChange(dh, sediment_flux, discharge, budget)
-    return ImplicitStep(change, int(passes), float(residual), rates)
+    return MassBudget(dt * eroded, dt * deposited, dt * outflow, dt * brought)

@@ -145,15 +145,61 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
     out = outlets.ravel()
     off = neighbour_offsets(nx)
     inv_dist = inverse_distances(dx, dy)
-    area = dx * dy
-    inv_area = 1.0 / area
+    depositing = coefficients_into(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n,
+                                   m, k_d, dt, coef)
+    passes = 0
+    ratio = 0.0
+    clipped = 0.0
+    relax = 1.0
+    previous = math.inf
+    stalled = 0
+    for _ in range(max_iter):
+        passes += 1
+        receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, hn)
+        change, largest, clipped = sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n,
+                                                 k_d, uplift, dt, qs_in, depositing, relax, dx * dy,
+                                                 dep, coef, hn, qs)
+        tol = max(atol, rtol * largest)
+        ratio = change / tol
+        if change <= tol:
+            break
+        if change < 0.5 * previous:
+            previous = change
+            stalled = 0
+        else:
+            stalled += 1
+        if stalled == 3:
+            # the rates overshoot or cycle (deposition raising a cell above its receivers, whose
+            # incision then sends the sediment on): under-relax them, down to 1/64
+            relax = max(0.5 * relax, 1.0 / 64.0)
+            stalled = 0
+    return passes, ratio, clipped
+
+
+@numba.njit(cache=True, inline="always")
+def _receivers_of(z, hn, i, ny, nx, off, inv_dist, single, frac, hr, a):
+    """Fill ``frac`` with cell ``i``'s flow fractions, ``hr`` and ``a`` with its receivers'
+    elevations in ``hn`` and weights w_k / L_k (1/m); returns (count, interior)."""
+    interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+    count = 0
+    for kk in range(8):
+        if frac[kk] > 0.0:
+            hr[count] = hn[i + off[kk]]
+            a[count] = frac[kk] * inv_dist[kk]
+            count += 1
+    return count, interior
+
+
+@numba.njit(cache=True)
+def coefficients_into(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n, m, k_d, dt,
+                      coef):
+    """coef[p] = K·Q^m·dt of cell ``order[p]`` (times c^n, c = |∇h| / weighted receiver slope at
+    the start, where ``gradient`` is given), 0 under a lake of the routing surface; returns
+    whether any K_d > 0."""
     frac = np.empty(8, dtype=np.float64)
-    hr = np.empty(8, dtype=np.float64)
-    a = np.empty(8, dtype=np.float64)
-    size = order.size
     depositing = False
     scaled = gradient.size > 0
-    for p in range(size):
+    for p in range(order.size):
         i = order[p]
         water = q[i]
         c = _at(k, i) * math.exp2(m * math.log2(water)) * dt if water > 0.0 else 0.0
@@ -172,79 +218,67 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
                 c *= ratio if n == 1.0 else ratio**n
         coef[p] = c
         depositing = depositing or _at(k_d, i) > 0.0
-    passes = 0
-    ratio = 0.0
+    return depositing
+
+
+@numba.njit(cache=True)
+def receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, hn):
+    """Receivers first: each cell's end-of-step elevation from its receivers' (``solve_cell``)
+    with the deposition rates ``dep``; outlets keep ``h0``."""
+    frac = np.empty(8, dtype=np.float64)
+    hr = np.empty(8, dtype=np.float64)
+    a = np.empty(8, dtype=np.float64)
+    for p in range(order.size - 1, -1, -1):
+        i = order[p]
+        if out[i]:
+            hn[i] = h0[i]
+            continue
+        count, _ = _receivers_of(z, hn, i, ny, nx, off, inv_dist, single, frac, hr, a)
+        hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
+
+
+@numba.njit(cache=True)
+def sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, uplift, dt, qs_in,
+                  depositing, relax, area, dep, coef, hn, qs):
+    """Donors first: the sediment arriving at each cell sets its deposition rate (relaxed by
+    ``relax``), the cell is solved again with it (from its receivers' current elevations), and
+    what it lost, Qs = Q̃s + (U − Δh/dt)·A, goes on to its receivers. Returns (largest change
+    of D·dt (m), largest |Δh| (m), volume rate set to 0 on negative fluxes (m³/y))."""
+    frac = np.empty(8, dtype=np.float64)
+    hr = np.empty(8, dtype=np.float64)
+    a = np.empty(8, dtype=np.float64)
+    inv_area = 1.0 / area
+    change = 0.0
     clipped = 0.0
-    relax = 1.0
-    previous = math.inf
-    stalled = 0
-    for _ in range(max_iter):
-        passes += 1
-        for p in range(size - 1, -1, -1):
-            i = order[p]
-            if out[i]:
-                hn[i] = h0[i]
-                continue
-            base = h0[i] + dt * (_at(uplift, i) + dep[i])
-            flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
-            count = 0
-            for kk in range(8):
-                if frac[kk] > 0.0:
-                    hr[count] = hn[i + off[kk]]
-                    a[count] = frac[kk] * inv_dist[kk]
-                    count += 1
-            hn[i] = solve_cell(base, hr, a, count, coef[p], n)
-        change = 0.0
-        clipped = 0.0
-        largest = 0.0
-        for i in range(qs.size):
-            qs[i] = qs_in[i]
-        for p in range(size):
-            i = order[p]
-            arriving = qs[i]
-            if out[i]:
-                continue
-            interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
-            if depositing:
-                # the deposition of the sediment arriving now, and the cell solved again with
-                # it: sediment news travel down in this pass as base-level news travel up in
-                # the other (a symmetric Gauss–Seidel sweep)
-                water = q[i]
-                kd = _at(k_d, i)
-                if water > 0.0:
-                    trapping = min(kd / water, inv_area)
-                else:
-                    trapping = inv_area if kd > 0.0 else 0.0
-                fresh = arriving * trapping
-                change = max(change, abs(fresh - dep[i]) * dt)
-                dep[i] += relax * (fresh - dep[i])
-                count = 0
-                for kk in range(8):
-                    if frac[kk] > 0.0:
-                        hr[count] = hn[i + off[kk]]
-                        a[count] = frac[kk] * inv_dist[kk]
-                        count += 1
-                hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
-            lost = _at(uplift, i) - (hn[i] - h0[i]) / dt
-            largest = max(largest, abs(hn[i] - h0[i]))
-            leaving = arriving + lost * area
-            if leaving < 0.0:
-                clipped -= leaving
-                leaving = 0.0
-            qs[i] = leaving
-            spread(qs, i, off, frac, leaving, interior)
-        tol = max(atol, rtol * largest)
-        ratio = change / tol
-        if change <= tol:
-            break
-        if change < 0.5 * previous:
-            previous = change
-            stalled = 0
-        else:
-            stalled += 1
-        if stalled == 3:
-            # the rates overshoot or cycle (deposition raising a cell above its receivers, whose
-            # incision then sends the sediment on): under-relax them, down to 1/64
-            relax = max(0.5 * relax, 1.0 / 64.0)
-            stalled = 0
-    return passes, ratio, clipped
+    largest = 0.0
+    for i in range(qs.size):
+        qs[i] = qs_in[i]
+    for p in range(order.size):
+        i = order[p]
+        arriving = qs[i]
+        if out[i]:
+            continue
+        count, interior = _receivers_of(z, hn, i, ny, nx, off, inv_dist, single, frac, hr, a)
+        if depositing:
+            # the deposition of the sediment arriving now, and the cell solved again with it:
+            # sediment news travel down in this pass as base-level news travel up in the other
+            # (a symmetric Gauss–Seidel sweep)
+            water = q[i]
+            kd = _at(k_d, i)
+            if water > 0.0:
+                trapping = min(kd / water, inv_area)
+            else:
+                trapping = inv_area if kd > 0.0 else 0.0
+            fresh = arriving * trapping
+            change = max(change, abs(fresh - dep[i]) * dt)
+            dep[i] += relax * (fresh - dep[i])
+            hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
+        lost = _at(uplift, i) - (hn[i] - h0[i]) / dt
+        largest = max(largest, abs(hn[i] - h0[i]))
+        leaving = arriving + lost * area
+        if leaving < 0.0:
+            clipped -= leaving
+            leaving = 0.0
+        qs[i] = leaving
+        spread(qs, i, off, frac, leaving, interior)
+    return change, largest, clipped
