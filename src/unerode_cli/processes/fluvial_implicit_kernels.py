@@ -99,7 +99,7 @@ def solve_cell(base, hr, a, count, coef, n):
 
 @numba.njit(cache=True)
 def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, n, m, k_d, uplift, dt,
-                        qs_in, rtol, atol, max_iter, hn, qs, dep, coef):
+                        qs_in, rtol, atol, max_iter, hn, qs, dep, coef, code):
     """One implicit forward step of 000 Eq. 3 (dt > 0).
 
     Stream power, implicit in the new elevations (Braun & Willett 2013): in a pass over the
@@ -135,10 +135,14 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
         dep: float64[ny*nx] deposition rates D (m/y): on entry the first guess (e.g. the
             previous step's, or 0), on return those of the last pass.
         coef: float64[order.size] work array.
+        code: int8[order.size] work array with D8 (each cell's receiver as a neighbour number,
+            found once), int8[0] with MFD.
 
     Returns:
         (passes, largest change of D·dt in the last pass ÷ the tolerance it had to meet (≤ 1:
-        converged; 0 without deposition), volume rate set to 0 on negative fluxes (m³/y)).
+        converged; 0 without deposition), volume rate set to 0 on negative fluxes, rates of
+        erosion and deposition Σ max(0, ±(U − Δh/dt))·A over the free cells and of outflux
+        Σ Qs over the outlets (m³/y)).
     """
     ny, nx = zf.shape
     z = zf.ravel()
@@ -146,19 +150,21 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
     off = neighbour_offsets(nx)
     inv_dist = inverse_distances(dx, dy)
     depositing = coefficients_into(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n,
-                                   m, k_d, dt, coef)
+                                   m, k_d, dt, coef, code)
     passes = 0
     ratio = 0.0
     clipped = 0.0
+    eroded = 0.0
+    deposited = 0.0
     relax = 1.0
     previous = math.inf
     stalled = 0
     for _ in range(max_iter):
         passes += 1
-        receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, hn)
-        change, largest, clipped = sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n,
-                                                 k_d, uplift, dt, qs_in, depositing, relax, dx * dy,
-                                                 dep, coef, hn, qs)
+        receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, code, hn)
+        change, largest, clipped, eroded, deposited = sediment_pass(
+            h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, uplift, dt, qs_in, depositing,
+            relax, dx * dy, dep, coef, code, hn, qs)
         tol = max(atol, rtol * largest)
         ratio = change / tol
         if change <= tol:
@@ -173,13 +179,26 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
             # incision then sends the sediment on): under-relax them, down to 1/64
             relax = max(0.5 * relax, 1.0 / 64.0)
             stalled = 0
-    return passes, ratio, clipped
+    outflow = 0.0
+    for p in range(order.size):
+        i = order[p]
+        if out[i]:
+            outflow += qs[i]
+    return passes, ratio, clipped, eroded, deposited, outflow
 
 
 @numba.njit(cache=True, inline="always")
-def _receivers_of(z, hn, i, ny, nx, off, inv_dist, single, frac, hr, a):
-    """Fill ``frac`` with cell ``i``'s flow fractions, ``hr`` and ``a`` with its receivers'
-    elevations in ``hn`` and weights w_k / L_k (1/m); returns (count, interior)."""
+def _receivers_of(z, hn, i, p, ny, nx, off, inv_dist, single, code, frac, hr, a):
+    """Fill ``hr`` and ``a`` with the receivers' elevations in ``hn`` and weights w_k / L_k
+    (1/m) of cell ``i`` (position ``p`` in the order), ``frac`` with its flow fractions (MFD;
+    D8 reads its receiver off ``code``); returns (count, interior)."""
+    if single:
+        best = code[p]
+        if best < 0:
+            return 0, False
+        hr[0] = hn[i + off[best]]
+        a[0] = inv_dist[best]
+        return 1, False
     interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
     count = 0
     for kk in range(8):
@@ -192,10 +211,10 @@ def _receivers_of(z, hn, i, ny, nx, off, inv_dist, single, frac, hr, a):
 
 @numba.njit(cache=True)
 def coefficients_into(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n, m, k_d, dt,
-                      coef):
+                      coef, code):
     """coef[p] = K·Q^m·dt of cell ``order[p]`` (times c^n, c = |∇h| / weighted receiver slope at
-    the start, where ``gradient`` is given), 0 under a lake of the routing surface; returns
-    whether any K_d > 0."""
+    the start, where ``gradient`` is given), 0 under a lake of the routing surface; with D8,
+    code[p] = the neighbour number of its receiver (-1: none). Returns whether any K_d > 0."""
     frac = np.empty(8, dtype=np.float64)
     depositing = False
     scaled = gradient.size > 0
@@ -217,12 +236,19 @@ def coefficients_into(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradi
                 ratio = gradient[i] / weighted
                 c *= ratio if n == 1.0 else ratio**n
         coef[p] = c
+        if single:
+            code[p] = -1
+            if not out[i]:
+                flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
+                for kk in range(8):
+                    if frac[kk] > 0.0:
+                        code[p] = kk
         depositing = depositing or _at(k_d, i) > 0.0
     return depositing
 
 
 @numba.njit(cache=True)
-def receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, hn):
+def receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, code, hn):
     """Receivers first: each cell's end-of-step elevation from its receivers' (``solve_cell``)
     with the deposition rates ``dep``; outlets keep ``h0``."""
     frac = np.empty(8, dtype=np.float64)
@@ -233,17 +259,18 @@ def receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, 
         if out[i]:
             hn[i] = h0[i]
             continue
-        count, _ = _receivers_of(z, hn, i, ny, nx, off, inv_dist, single, frac, hr, a)
+        count, _ = _receivers_of(z, hn, i, p, ny, nx, off, inv_dist, single, code, frac, hr, a)
         hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
 
 
 @numba.njit(cache=True)
 def sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, uplift, dt, qs_in,
-                  depositing, relax, area, dep, coef, hn, qs):
+                  depositing, relax, area, dep, coef, code, hn, qs):
     """Donors first: the sediment arriving at each cell sets its deposition rate (relaxed by
     ``relax``), the cell is solved again with it (from its receivers' current elevations), and
     what it lost, Qs = Q̃s + (U − Δh/dt)·A, goes on to its receivers. Returns (largest change
-    of D·dt (m), largest |Δh| (m), volume rate set to 0 on negative fluxes (m³/y))."""
+    of D·dt (m), largest |Δh| (m), volume rate set to 0 on negative fluxes, erosion and
+    deposition rates (m³/y))."""
     frac = np.empty(8, dtype=np.float64)
     hr = np.empty(8, dtype=np.float64)
     a = np.empty(8, dtype=np.float64)
@@ -251,6 +278,8 @@ def sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, u
     change = 0.0
     clipped = 0.0
     largest = 0.0
+    eroded = 0.0
+    deposited = 0.0
     for i in range(qs.size):
         qs[i] = qs_in[i]
     for p in range(order.size):
@@ -258,7 +287,7 @@ def sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, u
         arriving = qs[i]
         if out[i]:
             continue
-        count, interior = _receivers_of(z, hn, i, ny, nx, off, inv_dist, single, frac, hr, a)
+        count, interior = _receivers_of(z, hn, i, p, ny, nx, off, inv_dist, single, code, frac, hr, a)
         if depositing:
             # the deposition of the sediment arriving now, and the cell solved again with it:
             # sediment news travel down in this pass as base-level news travel up in the other
@@ -275,10 +304,16 @@ def sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, u
             hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
         lost = _at(uplift, i) - (hn[i] - h0[i]) / dt
         largest = max(largest, abs(hn[i] - h0[i]))
+        eroded += max(lost, 0.0) * area
+        deposited += max(-lost, 0.0) * area
         leaving = arriving + lost * area
         if leaving < 0.0:
             clipped -= leaving
             leaving = 0.0
         qs[i] = leaving
-        spread(qs, i, off, frac, leaving, interior)
-    return change, largest, clipped
+        if single:
+            if count > 0:
+                qs[i + off[code[p]]] += leaving
+        else:
+            spread(qs, i, off, frac, leaving, interior)
+    return change, largest, clipped, eroded, deposited
