@@ -100,8 +100,7 @@ def step(
     """
     from unerode_cli.hydro.fields import flat_field
     from unerode_cli.hydro.kernels import accumulate_into
-    from unerode_cli.hydro.routing import cell_sources, route, scratch
-    from unerode_cli.processes import fluvial_implicit_kernels as fik
+    from unerode_cli.hydro.routing import cell_sources, route
 
     if not dt > 0.0:
         raise ValueError(f"the implicit step runs forward in time (dt > 0), got dt = {dt:g}")
@@ -122,7 +121,6 @@ def step(
     discharge = np.zeros(shape, dtype=np.float64)
     accumulate_into(routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single,
                     sources, discharge.ravel())
-    gradient = _gradient(h0.reshape(shape), grid, routing.single)
     k = flat_field(params.k, shape, "k")
     q_max = float(discharge.max(initial=0.0))
     if not np.isfinite(float(k.max(initial=0.0)) * q_max ** float(params.m) * dt):
@@ -131,15 +129,9 @@ def step(
     rates = np.zeros(shape) if deposition is None else np.array(deposition, dtype=np.float64)
     sediment_flux = np.zeros(shape, dtype=np.float64)
     uplift = flat_field(params.uplift, shape, "uplift")
-    passes, residual, _clipped, eroded, deposited, outflow = fik.implicit_sweep_into(
-        h0, routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single,
-        discharge.ravel(), gradient, k, float(params.n), float(params.m),
-        flat_field(params.k_d, shape, "k_d"), uplift, float(dt), sediment_in, float(rtol), ATOL,
-        int(max_passes), new, sediment_flux.ravel(),
-        rates.ravel(),
-        scratch("fluvial_implicit.coef", routing.order.shape, np.float64),
-        scratch("fluvial_implicit.code", routing.order.shape if routing.single else (0,), np.int8),
-    )
+    passes, residual, eroded, deposited, outflow = _sweep(
+        h0, grid, routing, params, dt, discharge.ravel(), k, uplift, sediment_in, inflow is not None,
+        rtol, max_passes, new, sediment_flux.ravel(), rates.ravel())
     dh = new.reshape(shape)
     dh -= h0.reshape(shape)
     dh[~grid.valid] = 0.0
@@ -149,6 +141,36 @@ def step(
                         dt * float(np.sum(sediment_in, dtype=np.float64)))
     change = FluvialChange(dh, sediment_flux, discharge, budget)
     return ImplicitStep(change, int(passes), float(residual), rates)
+
+
+def _sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, dt: float,
+           discharge: np.ndarray, k: np.ndarray, uplift: np.ndarray, sediment_in: np.ndarray,
+           inflowing: bool, rtol: float, max_passes: int, new: np.ndarray, sediment_flux: np.ndarray,
+           rates: np.ndarray) -> tuple[int, float, float, float, float]:
+    """The kernel of the step: D8 on arrays in the routing's order, MFD on the grid. Fills
+    ``new``, ``sediment_flux`` and ``rates`` (flat); returns (passes, residual, erosion,
+    deposition and outflux rates in m³/y)."""
+    from unerode_cli.hydro.fields import flat_field
+    from unerode_cli.hydro.routing import scratch
+    from unerode_cli.processes import fluvial_implicit_kernels as fik
+
+    shape, order = grid.shape, routing.order
+    fields = (flat_field(params.k_d, shape, "k_d"), uplift, float(dt))
+    if routing.single:
+        done = fik.d8_sweep_into(
+            h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, discharge, k, float(params.n),
+            float(params.m), *fields, sediment_in if inflowing else np.zeros(1), float(rtol), ATOL,
+            int(max_passes), new, sediment_flux, rates,
+            scratch("fluvial_implicit.work", (6, order.size), np.float64),
+            scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
+    else:
+        done = fik.implicit_sweep_into(
+            h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single, discharge,
+            _gradient(h0.reshape(shape), grid, routing.single), k, float(params.n), float(params.m),
+            *fields, sediment_in, float(rtol), ATOL, int(max_passes), new, sediment_flux, rates,
+            scratch("fluvial_implicit.coef", order.shape, np.float64), np.empty(0, dtype=np.int8))
+    passes, residual, _clipped, eroded, deposited, outflow = done
+    return int(passes), float(residual), float(eroded), float(deposited), float(outflow)
 
 
 def _gradient(h: np.ndarray, grid: Grid, single: bool) -> np.ndarray:

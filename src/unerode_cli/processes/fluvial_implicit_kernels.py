@@ -169,22 +169,27 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
         ratio = change / tol
         if change <= tol:
             break
-        if change < 0.5 * previous:
-            previous = change
-            stalled = 0
-        else:
-            stalled += 1
-        if stalled == 3:
-            # the rates overshoot or cycle (deposition raising a cell above its receivers, whose
-            # incision then sends the sediment on): under-relax them, down to 1/64
-            relax = max(0.5 * relax, 1.0 / 64.0)
-            stalled = 0
+        previous, stalled, relax = _relaxation(change, previous, stalled, relax)
     outflow = 0.0
     for p in range(order.size):
         i = order[p]
         if out[i]:
             outflow += qs[i]
     return passes, ratio, clipped, eroded, deposited, outflow
+
+
+@numba.njit(cache=True, inline="always")
+def _relaxation(change, previous, stalled, relax):
+    """(previous, stalled, relax) after a pass whose largest change of D·dt is ``change``:
+    where the change has not halved in three passes the rates overshoot or cycle (deposition
+    raising a cell above its receivers, whose incision then sends the sediment on), and their
+    update is relaxed by half again, down to 1/64."""
+    if change < 0.5 * previous:
+        return change, 0, relax
+    stalled += 1
+    if stalled == 3:
+        return previous, 0, max(0.5 * relax, 1.0 / 64.0)
+    return previous, stalled, relax
 
 
 @numba.njit(cache=True, inline="always")
@@ -317,3 +322,155 @@ def sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, u
         else:
             spread(qs, i, off, frac, leaving, interior)
     return change, largest, clipped, eroded, deposited
+
+
+@numba.njit(cache=True)
+def d8_sweep_into(h0, zf, outlets, order, dx, dy, q, k, n, m, k_d, uplift, dt, qs_in, rtol, atol,
+                  max_iter, hn, qs, dep, work, position):
+    """``implicit_sweep_into`` with one receiver per cell (D8), on arrays laid out in the
+    routing's order: each pass then reads its cells one after the other, and only the
+    receiver's elevation and sediment flux at another place, where elevation order would jump
+    across the whole map for every array. Same arguments and results as
+    ``implicit_sweep_into`` (for D8, without ``gradient``), with ``work`` float64[6, order.size]
+    and ``position`` (an integer array of ny*nx, the dtype of ``order``) as scratch."""
+    ny, nx = zf.shape
+    z = zf.ravel()
+    out = outlets.ravel()
+    off = neighbour_offsets(nx)
+    inv_dist = inverse_distances(dx, dy)
+    size = order.size
+    area = dx * dy
+    h0p, hnp, depp, qsp, coefp, trap = work[0], work[1], work[2], work[3], work[4], work[5]
+    receiver = np.empty(size, dtype=order.dtype)   # position of the receiver; -1 none, -2 outlet
+    depositing = _d8_layout(h0, z, out, order, ny, nx, off, inv_dist, q, k, n, m, k_d, dt, dep, area,
+                            position, receiver, h0p, hnp, depp, coefp, trap)
+    passes = 0
+    ratio = 0.0
+    clipped = 0.0
+    eroded = 0.0
+    deposited = 0.0
+    relax = 1.0
+    previous = math.inf
+    stalled = 0
+    for _ in range(max_iter):
+        passes += 1
+        _d8_receivers_pass(order, receiver, uplift, dt, h0p, hnp, depp, coefp, n)
+        change, largest, clipped, eroded, deposited = _d8_sediment_pass(
+            order, receiver, uplift, dt, qs_in, depositing, relax, area, h0p, hnp, depp, coefp, trap,
+            qsp, n)
+        tol = max(atol, rtol * largest)
+        ratio = change / tol
+        if change <= tol:
+            break
+        previous, stalled, relax = _relaxation(change, previous, stalled, relax)
+    outflow = 0.0
+    for p in range(size):
+        i = order[p]
+        hn[i] = hnp[p]
+        qs[i] = qsp[p]
+        dep[i] = depp[p]
+        if receiver[p] == -2:
+            outflow += qsp[p]
+    return passes, ratio, clipped, eroded, deposited, outflow
+
+
+@numba.njit(cache=True)
+def _d8_receivers_pass(order, receiver, uplift, dt, h0p, hnp, depp, coefp, n):
+    """Receivers first, on arrays by position in ``order`` (see ``d8_sweep_into``)."""
+    for p in range(order.size - 1, -1, -1):
+        r = receiver[p]
+        if r == -2:
+            continue
+        base = h0p[p] + dt * (_at(uplift, order[p]) + depp[p])
+        hnp[p] = base if r < 0 else _d8_solve(base, hnp[r], coefp[p], n)
+
+
+@numba.njit(cache=True)
+def _d8_sediment_pass(order, receiver, uplift, dt, qs_in, depositing, relax, area, h0p, hnp, depp, coefp,
+                      trap, qsp, n):
+    """Donors first, on arrays by position in ``order``: ``sediment_pass`` for D8."""
+    change = 0.0
+    clipped = 0.0
+    largest = 0.0
+    eroded = 0.0
+    deposited = 0.0
+    for p in range(order.size):
+        qsp[p] = qs_in[order[p]] if qs_in.size > 1 else 0.0
+    for p in range(order.size):
+        r = receiver[p]
+        if r == -2:
+            continue
+        arriving = qsp[p]
+        u = _at(uplift, order[p])
+        if depositing:
+            fresh = arriving * trap[p]
+            change = max(change, abs(fresh - depp[p]) * dt)
+            depp[p] += relax * (fresh - depp[p])
+            base = h0p[p] + dt * (u + depp[p])
+            hnp[p] = base if r < 0 else _d8_solve(base, hnp[r], coefp[p], n)
+        step = hnp[p] - h0p[p]
+        lost = u - step / dt
+        largest = max(largest, abs(step))
+        eroded += max(lost, 0.0) * area
+        deposited += max(-lost, 0.0) * area
+        leaving = arriving + lost * area
+        if leaving < 0.0:
+            clipped -= leaving
+            leaving = 0.0
+        qsp[p] = leaving
+        if r >= 0:
+            qsp[r] += leaving
+    return change, largest, clipped, eroded, deposited
+
+
+@numba.njit(cache=True, inline="always")
+def _d8_solve(base, receiver, coef, n):
+    """``solve_cell`` for one receiver with weight folded into ``coef`` (K·Q^m·dt / L^n)."""
+    if base <= receiver or coef <= 0.0:
+        return base
+    if n == 1.0:
+        return (base + coef * receiver) / (1.0 + coef)
+    hr = np.empty(1)
+    a = np.ones(1)
+    hr[0] = receiver
+    return solve_cell(base, hr, a, 1, coef, n)
+
+
+@numba.njit(cache=True)
+def _d8_layout(h0, z, out, order, ny, nx, off, inv_dist, q, k, n, m, k_d, dt, dep, area, position,
+               receiver, h0p, hnp, depp, coefp, trap):
+    """The D8 step's arrays by position in ``order``: start elevations, deposition rates (from
+    ``dep``), K·Q^m·dt / L^n (0 under a lake of the routing surface), the trapping
+    min(K_d/Q, 1/A), and each cell's receiver position (-1 none, -2 outlet). Returns whether
+    any K_d > 0."""
+    frac = np.empty(8, dtype=np.float64)
+    for p in range(order.size):
+        position[order[p]] = p
+    depositing = False
+    inv_area = 1.0 / area
+    for p in range(order.size):
+        i = order[p]
+        h0p[p] = h0[i]
+        hnp[p] = h0[i]
+        depp[p] = dep[i]
+        water = q[i]
+        kd = _at(k_d, i)
+        depositing = depositing or kd > 0.0
+        if water > 0.0:
+            trap[p] = min(kd / water, inv_area)
+        else:
+            trap[p] = inv_area if kd > 0.0 else 0.0
+        if out[i]:
+            receiver[p] = -2
+            coefp[p] = 0.0
+            continue
+        receiver[p] = -1
+        coefp[p] = 0.0
+        flow_fractions(z, i, ny, nx, off, inv_dist, True, frac)
+        for kk in range(8):
+            if frac[kk] > 0.0:
+                receiver[p] = position[i + off[kk]]
+                if water > 0.0 and not z[i] > h0[i]:
+                    c = _at(k, i) * math.exp2(m * math.log2(water)) * dt
+                    coefp[p] = c * (inv_dist[kk] if n == 1.0 else inv_dist[kk] ** n)
+    return depositing
