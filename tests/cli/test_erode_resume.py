@@ -22,17 +22,21 @@ def pixels(path: Path) -> np.ndarray:
         return src.read(1)
 
 
-@pytest.mark.parametrize("command", ["erode", "unerode"])
-def test_a_stopped_run_resumes_bit_for_bit(tmp_path: Path, command: str) -> None:
+@pytest.mark.parametrize(("command", "scheme"), [("erode", []), ("erode", ["--scheme", "implicit"]),
+                                               ("unerode", [])])
+def test_a_stopped_run_resumes_bit_for_bit(tmp_path: Path, command: str, scheme: list[str]) -> None:
+    # the implicit scheme starts each step's deposition iteration from the last step's rates,
+    # which the checkpoint keeps
+    options = [*OPTIONS, *scheme]
     full, part = tmp_path / "full.tif", tmp_path / "part.tif"
-    assert run_cli(command, DEM, full, *OPTIONS).returncode == 0
-    stopped = run_cli(command, DEM, part, *OPTIONS, "--max-steps", "3")
+    assert run_cli(command, DEM, full, *options).returncode == 0
+    stopped = run_cli(command, DEM, part, *options, "--max-steps", "3")
     assert stopped.returncode == 0 and "stopped after step 3 of 6" in stopped.stderr
     checkpoint = tmp_path / ".part.tif.checkpoint.npz"
     assert checkpoint.exists() and not part.exists()
-    refused = run_cli(command, DEM, part, *OPTIONS)
+    refused = run_cli(command, DEM, part, *options)
     assert refused.returncode == 2 and "--resume" in refused.stderr
-    resumed = run_cli(command, DEM, part, *OPTIONS, "--resume")
+    resumed = run_cli(command, DEM, part, *options, "--resume")
     assert resumed.returncode == 0, resumed.stderr
     assert "resuming after step 3 of 6" in resumed.stderr
     assert not checkpoint.exists()

@@ -81,18 +81,29 @@ def test_cfl_substeps_or_refusal(tmp_path: Path, ramp: Path) -> None:
     assert_refused(run_cli("erode", ramp, out, *args, "--no-substep"), out, "unstable")
 
 
-def test_the_implicit_default_takes_any_step_whole(tmp_path: Path, ramp: Path) -> None:
-    # the step the explicit scheme splits above is one implicit step, even with --no-substep
+def test_the_default_takes_a_step_the_explicit_scheme_splits_whole(tmp_path: Path, ramp: Path) -> None:
+    # --scheme auto (the default) runs implicit where the explicit scheme would need many
+    # sub-steps: the step is taken whole, even with --no-substep
     args = ["--dt", 1e5, "--steps", 1, "--outlets", "S", "--K", "1e-3", "--no-substep"]
     result = run_cli("erode", ramp, tmp_path / "a.tif", *args)
     assert result.returncode == 0, result.stderr
     assert "sub-step" not in result.stderr
     sidecar = json.loads((tmp_path / "a.tif.json").read_text())
-    assert sidecar["parameters"]["scheme"] == "implicit"
+    assert sidecar["parameters"]["scheme"] == "auto"
+    assert sidecar["statistics"]["fluvial_scheme"] == "implicit"
     assert sidecar["statistics"]["substeps"]["fluvial"] == 1
     assert sidecar["statistics"]["fluvial_implicit_passes"] >= 2
     budget = sidecar["statistics"]["mass_budget_m3"]["fluvial"]
     assert abs(budget["residual"]) <= 1e-9 * budget["eroded"]
+
+
+def test_the_default_stays_explicit_where_the_step_is_stable(tmp_path: Path, ramp: Path) -> None:
+    result = run_cli("erode", ramp, tmp_path / "a.tif", "--dt", 10, "--steps", 2, "--outlets", "S")
+    assert result.returncode == 0, result.stderr
+    sidecar = json.loads((tmp_path / "a.tif.json").read_text())
+    assert sidecar["statistics"]["fluvial_scheme"] == "explicit"
+    assert sidecar["statistics"]["substeps"]["fluvial"] == 2
+    assert "fluvial_implicit_passes" not in sidecar["statistics"]
 
 
 def test_bad_parameter_rasters(tmp_path: Path, ramp: Path) -> None:

@@ -20,7 +20,7 @@ from unerode_cli.processes.budget import MassBudget
 from unerode_cli.processes.inflow import InflowHistory
 from unerode_cli.processes.parameters import UPLIFT, ParamSpec
 from unerode_cli.run.boundaries import Boundaries
-from unerode_cli.run.runner import Change, Process
+from unerode_cli.run.runner import MAX_SUBSTEPS, Change, Process, substeps_needed
 
 
 @dataclass
@@ -66,13 +66,22 @@ def _change(dh: np.ndarray, budget: MassBudget) -> Change:
     return Change(dh, budget.eroded, budget.deposited, budget.outflux, budget.inflow)
 
 
+#: ``"auto"`` runs implicit where the explicit scheme would need more sub-steps a step than
+#: this (without deposition, with it): the cost of one implicit step in explicit sub-steps,
+#: measured at 256²–4096² (bench/fluvial_implicit.py, docs/erode.md): one pass costs 2–3
+#: sub-steps; with deposition its 3–6 pairs of passes 6–9.
+AUTO_SUBSTEPS = {False: 3, True: 8}
+
+
 @dataclass
 class FluvialProcess:
     """Fluvial erosion/deposition (000 §3).
 
     Forward steps are ``forward``: ``"implicit"`` (``fluvial_implicit``, stable at any dt, so
-    never sub-stepped) or ``"explicit"`` (``fluvial.step``, sub-stepped to its CFL bound);
-    backward steps are explicit with the slope ``scheme``. The explicit stability check
+    never sub-stepped), ``"explicit"`` (``fluvial.step``, sub-stepped to its CFL bound), or
+    ``"auto"``: on the first forward step, implicit where the explicit scheme would need more
+    sub-steps than an implicit step costs (:data:`AUTO_SUBSTEPS`), else explicit, kept for the
+    whole run (``chosen``); backward steps are explicit with the slope ``scheme``. The explicit stability check
     computes the step itself and reads the CFL bound off its discharge; the step is kept, so
     that ``advance`` with the same elevation and dt (no sub-steps, the usual case) costs
     nothing more. A step that needs sub-steps wastes that one step. ``inflow``: rivers entering
@@ -87,11 +96,23 @@ class FluvialProcess:
     forward: str = "explicit"
     name: str = "fluvial"
     passes: int = 0
+    chosen: str | None = None
     _last: tuple[Any, float, fluvial.FluvialChange] | None = field(default=None, repr=False)
     _deposition: np.ndarray | None = field(default=None, repr=False)
 
     def _implicit(self, dt: float) -> bool:
-        return dt > 0.0 and self.forward == "implicit"
+        return dt > 0.0 and (self.forward if self.forward != "auto" else self.chosen) == "implicit"
+
+    def _choose(self, elevation: np.ndarray, dt: float) -> None:
+        """Settle ``"auto"`` on the first forward step from the explicit scheme's sub-steps."""
+        routing, change = self._step(elevation, dt)
+        stable = fluvial.max_stable_dt(elevation, self.surface.terrain.grid, self.params, routing,
+                                       discharge=change.discharge, validated=True)
+        depositing = bool(np.any(np.asarray(self.params.k_d) > 0.0))
+        needed = substeps_needed(dt, stable) if stable > 0.0 else MAX_SUBSTEPS + 1
+        self.chosen = "implicit" if needed > AUTO_SUBSTEPS[depositing] else "explicit"
+        if self.chosen == "implicit":
+            self._last = None   # the kept step is the explicit one
 
     def _step(self, elevation: np.ndarray, dt: float) -> tuple[Any, fluvial.FluvialChange]:
         # The surface hands out the same routing object as long as the elevation is unchanged,
@@ -133,19 +154,25 @@ class FluvialProcess:
         return _joined(first, second, half)
 
     def state(self) -> dict[str, Any]:
-        """What a resumed run needs to go on bit for bit: the deposition rates the next
-        implicit step starts from, and the passes counted."""
-        kept = {"passes": self.passes}
+        """What a resumed run needs to go on bit for bit: the scheme ``"auto"`` chose, the
+        deposition rates the next implicit step starts from, and the passes counted."""
+        kept: dict[str, Any] = {"passes": self.passes, "chosen": self.chosen or ""}
         if self._deposition is not None:
             kept["deposition"] = self._deposition
         return kept
 
     def restore(self, state: dict[str, Any]) -> None:
         self.passes = int(state.get("passes", 0))
+        self.chosen = str(state.get("chosen", "")) or None
         deposition = state.get("deposition")
         self._deposition = None if deposition is None else np.array(deposition, dtype=np.float64)
 
     def stable_dt(self, elevation: np.ndarray, dt: float) -> float:
+        if dt > 0.0 and self.forward == "auto" and self.chosen is None:
+            try:
+                self._choose(elevation, dt)
+            except FloatingPointError:
+                return float("nan")
         if self._implicit(dt):
             # any step is stable; one whose coefficients overflow has none (NaN)
             try:

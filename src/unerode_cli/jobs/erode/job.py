@@ -206,7 +206,7 @@ def schemes_of(job: ErosionJob) -> tuple[str, str]:
     if job.scheme in BACKWARD_SCHEMES:
         raise InputError(f"--scheme {job.scheme} sets the slope of backward steps (unerode); erode takes "
                          f"{' or '.join(FORWARD_SCHEMES)}.")
-    return job.scheme or "implicit", "limiter"
+    return job.scheme or "auto", "limiter"
 
 
 def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob:
@@ -288,10 +288,12 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
     output.tags[TIME_TAG] = repr(report.elapsed_years)
     change = process_change(terrain, result.elevation, prepared, report)
     stats = _statistics(report, change, result.wall_s, result.snapshots)
-    passes = [p.passes for p in prepared.processes if getattr(p, "passes", 0)]
-    if passes:
-        # passes of the implicit fluvial steps' deposition iteration (each converged)
-        stats["fluvial_implicit_passes"] = passes[0]
+    for process in prepared.processes:
+        if getattr(process, "chosen", None):
+            stats["fluvial_scheme"] = process.chosen          # what --scheme auto chose
+        if getattr(process, "passes", 0):
+            # passes of the implicit fluvial steps' deposition iteration (each converged)
+            stats["fluvial_implicit_passes"] = process.passes
     save(output, prepared.outputs, job.command, _provenance(prepared), stats)
     if job.change_map is not None:
         layer = terrain.with_elevation(change)

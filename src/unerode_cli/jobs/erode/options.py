@@ -21,7 +21,7 @@ from unerode_cli.run.declare import Opt, parameter_options
 from unerode_cli.run.process_options import INFLOW, PARAMETER_PANELS
 
 #: --scheme's choices: the forward fluvial schemes of erode, the backward slopes of unerode
-FORWARD_SCHEMES = ("implicit", "explicit")
+FORWARD_SCHEMES = ("auto", "implicit", "explicit")
 BACKWARD_SCHEMES = ("limiter", "upwind")
 SCHEMES = FORWARD_SCHEMES + BACKWARD_SCHEMES
 
@@ -48,10 +48,11 @@ OPTIONS = (
         parser=POSITIVE_YEARS, record=False),
     Opt("change_map", Path, None, "Write the signed change (m) due to the processes (uplift excluded): "
         "< 0 erosion, > 0 deposition.", role="output", record=False),
-    Opt("scheme", str, None, "Fluvial scheme. erode: implicit (default; Braun & Willett 2013 with "
-        "Yuan et al. 2019's deposition, stable at any --dt) or explicit (000 Eq. 9, sub-stepped to its CFL "
-        "bound). unerode: the slope of backward fluvial and thermal steps, limiter (default; 000 Eq. 12) or "
-        "upwind (Eq. 10).", choices=SCHEMES),
+    Opt("scheme", str, None, "Fluvial scheme. erode: implicit (Braun & Willett 2013 with Yuan et al. "
+        "2019's deposition, stable at any --dt), explicit (000 Eq. 9, sub-stepped to its CFL bound), or auto "
+        "(default: implicit where the explicit scheme would need more than 8 sub-steps a step, 3 without "
+        "deposition, decided on the first step). unerode: the slope of backward fluvial and thermal steps, "
+        "limiter (default; 000 Eq. 12) or upwind (Eq. 10).", choices=SCHEMES),
     Opt("thermal_constraints", str, ",".join(thermal.CONSTRAINTS), "Un-deposition constraints of "
         "thermal unerosion (000 §4.2): any of slope (Eq. 16), convexity (Eq. 17), rate (max "
         "un-deposition), or none."),
