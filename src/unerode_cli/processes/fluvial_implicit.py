@@ -164,11 +164,12 @@ def _sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, 
             scratch("fluvial_implicit.work", (6, order.size), np.float64),
             scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
     else:
-        done = fik.implicit_sweep_into(
-            h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single, discharge,
+        done = fik.mfd_sweep_into(
+            h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, discharge,
             _gradient(h0.reshape(shape), grid, routing.single), k, float(params.n), float(params.m),
-            *fields, sediment_in, float(rtol), ATOL, int(max_passes), new, sediment_flux, rates,
-            scratch("fluvial_implicit.coef", order.shape, np.float64), np.empty(0, dtype=np.int8))
+            *fields, sediment_in if inflowing else np.zeros(1), float(rtol), ATOL, int(max_passes), new,
+            sediment_flux, rates, scratch("fluvial_implicit.work", (6, order.size), np.float64),
+            scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
     passes, residual, _clipped, eroded, deposited, outflow = done
     return int(passes), float(residual), float(eroded), float(deposited), float(outflow)
 

@@ -11,7 +11,7 @@ import math
 import numba
 import numpy as np
 
-from unerode_cli.hydro.kernels import flow_fractions, inverse_distances, neighbour_offsets, spread
+from unerode_cli.hydro.kernels import flow_fractions, inverse_distances, neighbour_offsets
 
 #: Bisection–Newton iterations of one cell's equation for n ≠ 1 (each at least halves the
 #: bracket, so 200 reach the last bit of any float64 bracket).
@@ -97,87 +97,6 @@ def solve_cell(base, hr, a, count, coef, n):
     return h
 
 
-@numba.njit(cache=True)
-def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, n, m, k_d, uplift, dt,
-                        qs_in, rtol, atol, max_iter, hn, qs, dep, coef, code):
-    """One implicit forward step of 000 Eq. 3 (dt > 0).
-
-    Stream power, implicit in the new elevations (Braun & Willett 2013): in a pass over the
-    cells, receivers first, each cell's end-of-step elevation solves ``solve_cell`` with its
-    receivers' end-of-step elevations, so any dt is stable. Deposition, the (K_d/Q)·Q̃s term,
-    is iterated as in Yuan et al. (2019, §3.2): given the deposition rates D, the receivers-first
-    pass gives the elevations; a donors-first pass then carries the sediment flux down
-    (Q̃s arriving, Qs = Q̃s + (U − Δh/dt)·A leaving, exactly what the cell lost) and sets the new
-    D = Q̃s·min(K_d/Q, 1/A) (000 Eq. 8, capped as the explicit step is); the passes repeat
-    until D·dt changes by at most max(``atol``, ``rtol``·max|Δh|) (m) on every cell, or
-    ``max_iter`` passes. Where the largest change has not halved in three passes, the rates are
-    under-relaxed (D ← D + ω·(D_new − D), ω halved each time, down to 1/64).
-
-    The sediment fluxes of the last pass follow from the elevations, so the mass budget holds
-    to rounding whatever the iteration count; a leaving flux that would be negative (more
-    deposited than arrived, only before convergence) is set to 0 and its volume returned.
-
-    Args:
-        h0: float64[ny*nx] elevation at the start (m).
-        zf, outlets, order, dx, dy, single: the routing of ``h0`` (``unerode_cli.hydro``); the
-            receivers and their weights are those of ``zf``, kept through the step.
-        q: float64[ny*nx] discharge Q (m³/y).
-        gradient: float64[ny*nx] |∇h| of ``h0`` (000 Eq. 9) to which each cell's weighted
-            receiver slope is scaled at the start of the step, or float64[0] for none (D8).
-        k: field K; n, m: exponents; k_d: field K_d (m/y); uplift: field U (m/y); dt: step (y).
-        qs_in: float64[ny*nx] sediment flux entering each cell from outside the map (m³/y).
-        rtol, atol: the iteration ends when no D·dt changed by more than max(atol, rtol times
-            the largest |Δh| of the pass) (m).
-        max_iter: most passes.
-        hn: float64[ny*nx] set to the elevation at the end of the step (outlets: h0).
-        qs: float64[ny*nx] set to the sediment flux Qs leaving each cell (m³/y; outlets: what
-            leaves the map there).
-        dep: float64[ny*nx] deposition rates D (m/y): on entry the first guess (e.g. the
-            previous step's, or 0), on return those of the last pass.
-        coef: float64[order.size] work array.
-        code: int8[order.size] work array with D8 (each cell's receiver as a neighbour number,
-            found once), int8[0] with MFD.
-
-    Returns:
-        (passes, largest change of D·dt in the last pass ÷ the tolerance it had to meet (≤ 1:
-        converged; 0 without deposition), volume rate set to 0 on negative fluxes, rates of
-        erosion and deposition Σ max(0, ±(U − Δh/dt))·A over the free cells and of outflux
-        Σ Qs over the outlets (m³/y)).
-    """
-    ny, nx = zf.shape
-    z = zf.ravel()
-    out = outlets.ravel()
-    off = neighbour_offsets(nx)
-    inv_dist = inverse_distances(dx, dy)
-    depositing = coefficients_into(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n,
-                                   m, k_d, dt, coef, code)
-    passes = 0
-    ratio = 0.0
-    clipped = 0.0
-    eroded = 0.0
-    deposited = 0.0
-    relax = 1.0
-    previous = math.inf
-    stalled = 0
-    for _ in range(max_iter):
-        passes += 1
-        receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, code, hn)
-        change, largest, clipped, eroded, deposited = sediment_pass(
-            h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, uplift, dt, qs_in, depositing,
-            relax, dx * dy, dep, coef, code, hn, qs)
-        tol = max(atol, rtol * largest)
-        ratio = change / tol
-        if change <= tol:
-            break
-        previous, stalled, relax = _relaxation(change, previous, stalled, relax)
-    outflow = 0.0
-    for p in range(order.size):
-        i = order[p]
-        if out[i]:
-            outflow += qs[i]
-    return passes, ratio, clipped, eroded, deposited, outflow
-
-
 @numba.njit(cache=True, inline="always")
 def _relaxation(change, previous, stalled, relax):
     """(previous, stalled, relax) after a pass whose largest change of D·dt is ``change``:
@@ -192,147 +111,11 @@ def _relaxation(change, previous, stalled, relax):
     return previous, stalled, relax
 
 
-@numba.njit(cache=True, inline="always")
-def _receivers_of(z, hn, i, p, ny, nx, off, inv_dist, single, code, frac, hr, a):
-    """Fill ``hr`` and ``a`` with the receivers' elevations in ``hn`` and weights w_k / L_k
-    (1/m) of cell ``i`` (position ``p`` in the order), ``frac`` with its flow fractions (MFD;
-    D8 reads its receiver off ``code``); returns (count, interior)."""
-    if single:
-        best = code[p]
-        if best < 0:
-            return 0, False
-        hr[0] = hn[i + off[best]]
-        a[0] = inv_dist[best]
-        return 1, False
-    interior = flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
-    count = 0
-    for kk in range(8):
-        if frac[kk] > 0.0:
-            hr[count] = hn[i + off[kk]]
-            a[count] = frac[kk] * inv_dist[kk]
-            count += 1
-    return count, interior
-
-
-@numba.njit(cache=True)
-def coefficients_into(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n, m, k_d, dt,
-                      coef, code):
-    """coef[p] = K·Q^m·dt of cell ``order[p]`` (times c^n, c = |∇h| / weighted receiver slope at
-    the start, where ``gradient`` is given), 0 under a lake of the routing surface; with D8,
-    code[p] = the neighbour number of its receiver (-1: none). Returns whether any K_d > 0."""
-    frac = np.empty(8, dtype=np.float64)
-    depositing = False
-    scaled = gradient.size > 0
-    for p in range(order.size):
-        i = order[p]
-        water = q[i]
-        c = _at(k, i) * math.exp2(m * math.log2(water)) * dt if water > 0.0 else 0.0
-        if z[i] > h0[i]:
-            # under a lake of the routing surface (or raised across a flat): the water stands,
-            # the sediment settles, nothing is incised
-            c = 0.0
-        if scaled and c > 0.0 and not out[i]:
-            flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
-            weighted = 0.0
-            for kk in range(8):
-                if frac[kk] > 0.0:
-                    weighted += frac[kk] * inv_dist[kk] * max(h0[i] - h0[i + off[kk]], 0.0)
-            if weighted > 0.0:
-                ratio = gradient[i] / weighted
-                c *= ratio if n == 1.0 else ratio**n
-        coef[p] = c
-        if single:
-            code[p] = -1
-            if not out[i]:
-                flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
-                for kk in range(8):
-                    if frac[kk] > 0.0:
-                        code[p] = kk
-        depositing = depositing or _at(k_d, i) > 0.0
-    return depositing
-
-
-@numba.njit(cache=True)
-def receivers_pass(h0, z, out, order, ny, nx, off, inv_dist, single, n, uplift, dt, dep, coef, code, hn):
-    """Receivers first: each cell's end-of-step elevation from its receivers' (``solve_cell``)
-    with the deposition rates ``dep``; outlets keep ``h0``."""
-    frac = np.empty(8, dtype=np.float64)
-    hr = np.empty(8, dtype=np.float64)
-    a = np.empty(8, dtype=np.float64)
-    for p in range(order.size - 1, -1, -1):
-        i = order[p]
-        if out[i]:
-            hn[i] = h0[i]
-            continue
-        count, _ = _receivers_of(z, hn, i, p, ny, nx, off, inv_dist, single, code, frac, hr, a)
-        hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
-
-
-@numba.njit(cache=True)
-def sediment_pass(h0, z, out, order, ny, nx, off, inv_dist, single, q, n, k_d, uplift, dt, qs_in,
-                  depositing, relax, area, dep, coef, code, hn, qs):
-    """Donors first: the sediment arriving at each cell sets its deposition rate (relaxed by
-    ``relax``), the cell is solved again with it (from its receivers' current elevations), and
-    what it lost, Qs = Q̃s + (U − Δh/dt)·A, goes on to its receivers. Returns (largest change
-    of D·dt (m), largest |Δh| (m), volume rate set to 0 on negative fluxes, erosion and
-    deposition rates (m³/y))."""
-    frac = np.empty(8, dtype=np.float64)
-    hr = np.empty(8, dtype=np.float64)
-    a = np.empty(8, dtype=np.float64)
-    inv_area = 1.0 / area
-    change = 0.0
-    clipped = 0.0
-    largest = 0.0
-    eroded = 0.0
-    deposited = 0.0
-    for i in range(qs.size):
-        qs[i] = qs_in[i]
-    for p in range(order.size):
-        i = order[p]
-        arriving = qs[i]
-        if out[i]:
-            continue
-        count, interior = _receivers_of(z, hn, i, p, ny, nx, off, inv_dist, single, code, frac, hr, a)
-        if depositing:
-            # the deposition of the sediment arriving now, and the cell solved again with it:
-            # sediment news travel down in this pass as base-level news travel up in the other
-            # (a symmetric Gauss–Seidel sweep)
-            water = q[i]
-            kd = _at(k_d, i)
-            if water > 0.0:
-                trapping = min(kd / water, inv_area)
-            else:
-                trapping = inv_area if kd > 0.0 else 0.0
-            fresh = arriving * trapping
-            change = max(change, abs(fresh - dep[i]) * dt)
-            dep[i] += relax * (fresh - dep[i])
-            hn[i] = solve_cell(h0[i] + dt * (_at(uplift, i) + dep[i]), hr, a, count, coef[p], n)
-        lost = _at(uplift, i) - (hn[i] - h0[i]) / dt
-        largest = max(largest, abs(hn[i] - h0[i]))
-        eroded += max(lost, 0.0) * area
-        deposited += max(-lost, 0.0) * area
-        leaving = arriving + lost * area
-        if leaving < 0.0:
-            clipped -= leaving
-            leaving = 0.0
-        qs[i] = leaving
-        if single:
-            if count > 0:
-                qs[i + off[code[p]]] += leaving
-        else:
-            spread(qs, i, off, frac, leaving, interior)
-    return change, largest, clipped, eroded, deposited
-
-
 @numba.njit(cache=True)
 def d8_sweep_into(h0, zf, outlets, order, dx, dy, q, k, n, m, k_d, uplift, dt, qs_in, rtol, atol,
                   max_iter, hn, qs, dep, work, position):
-    """``implicit_sweep_into`` with one receiver per cell (D8), on arrays laid out in the
-    routing's order: each pass then reads its cells one after the other, and only the
-    receiver's elevation and sediment flux at another place, where elevation order would jump
-    across the whole map for every array. Same arguments and results as
-    ``implicit_sweep_into`` (for D8, without ``gradient``), with ``work`` float64[6, order.size]
-    and ``position`` (an integer array of ny*nx, the dtype of ``order``) as scratch."""
+    """``mfd_sweep_into`` with one receiver per cell (D8), the steepest, and the slope to it
+    unscaled (Braun & Willett 2013): same arguments without ``gradient``, same results."""
     ny, nx = zf.shape
     z = zf.ravel()
     out = outlets.ravel()
@@ -363,15 +146,7 @@ def d8_sweep_into(h0, zf, outlets, order, dx, dy, q, k, n, m, k_d, uplift, dt, q
         if change <= tol:
             break
         previous, stalled, relax = _relaxation(change, previous, stalled, relax)
-    outflow = 0.0
-    for p in range(size):
-        i = order[p]
-        hn[i] = hnp[p]
-        qs[i] = qsp[p]
-        dep[i] = depp[p]
-        if receiver[p] == -2:
-            outflow += qsp[p]
-    return passes, ratio, clipped, eroded, deposited, outflow
+    return passes, ratio, clipped, eroded, deposited, _scatter(order, out, hnp, qsp, depp, hn, qs, dep)
 
 
 @numba.njit(cache=True)
@@ -388,7 +163,7 @@ def _d8_receivers_pass(order, receiver, uplift, dt, h0p, hnp, depp, coefp, n):
 @numba.njit(cache=True)
 def _d8_sediment_pass(order, receiver, uplift, dt, qs_in, depositing, relax, area, h0p, hnp, depp, coefp,
                       trap, qsp, n):
-    """Donors first, on arrays by position in ``order``: ``sediment_pass`` for D8."""
+    """Donors first, on arrays by position in ``order``: ``_mfd_sediment_pass`` for D8."""
     change = 0.0
     clipped = 0.0
     largest = 0.0
@@ -473,4 +248,238 @@ def _d8_layout(h0, z, out, order, ny, nx, off, inv_dist, q, k, n, m, k_d, dt, de
                 if water > 0.0 and not z[i] > h0[i]:
                     c = _at(k, i) * math.exp2(m * math.log2(water)) * dt
                     coefp[p] = c * (inv_dist[kk] if n == 1.0 else inv_dist[kk] ** n)
+    return depositing
+
+
+@numba.njit(cache=True)
+def mfd_sweep_into(h0, zf, outlets, order, dx, dy, q, gradient, k, n, m, k_d, uplift, dt, qs_in, rtol,
+                   atol, max_iter, hn, qs, dep, work, position):
+    """One implicit forward step of 000 Eq. 3 (dt > 0) with multiple flow directions (MFD).
+
+    Stream power, implicit in the new elevations (Braun & Willett 2013): in a pass over the
+    cells, receivers first, each cell's end-of-step elevation solves ``solve_cell`` with its
+    receivers' end-of-step elevations, so any dt is stable. Deposition, the (K_d/Q)·Q̃s term,
+    is iterated as in Yuan et al. (2019, §3.2): given the deposition rates D, the receivers-first
+    pass gives the elevations; a donors-first pass then carries the sediment flux down
+    (Q̃s arriving, Qs = Q̃s + (U − Δh/dt)·A leaving, exactly what the cell lost) and sets the new
+    D = Q̃s·min(K_d/Q, 1/A) (000 Eq. 8, capped as the explicit step is); the passes repeat
+    until D·dt changes by at most max(``atol``, ``rtol``·max|Δh|) (m) on every cell, or
+    ``max_iter`` passes. Where the largest change has not halved in three passes, the rates are
+    under-relaxed (D ← D + ω·(D_new − D), ω halved each time, down to 1/64).
+
+    The arrays are laid out in the routing's order, so each pass reads its cells in sequence,
+    and each cell's receivers (positions, fractions, neighbour numbers) are listed once.
+
+    The sediment fluxes of the last pass follow from the elevations, so the mass budget holds
+    to rounding whatever the iteration count; a leaving flux that would be negative (more
+    deposited than arrived, only before convergence) is set to 0 and its volume returned.
+
+    Args:
+        h0: float64[ny*nx] elevation at the start (m).
+        zf, outlets, order, dx, dy: the routing of ``h0`` (``unerode_cli.hydro``); the
+            receivers and their weights are those of ``zf``, kept through the step.
+        q: float64[ny*nx] discharge Q (m³/y).
+        gradient: float64[ny*nx] |∇h| of ``h0`` (000 Eq. 9) to which each cell's weighted
+            receiver slope is scaled at the start of the step.
+        k: field K; n, m: exponents; k_d: field K_d (m/y); uplift: field U (m/y); dt: step (y).
+        qs_in: float64[ny*nx] sediment flux entering each cell from outside the map (m³/y),
+            or float64[1] for none; rtol, atol, max_iter: as above.
+        hn: float64[ny*nx] set to the elevation at the end of the step (outlets: h0).
+        qs: float64[ny*nx] set to the sediment flux Qs leaving each cell (m³/y; outlets: what
+            leaves the map there).
+        dep: float64[ny*nx] deposition rates D (m/y): on entry the first guess (e.g. the
+            previous step's, or 0), on return those of the last pass.
+        work, position: scratch, float64[6, order.size] and of ny*nx (``order``'s dtype).
+
+    Returns:
+        (passes, largest change of D·dt in the last pass ÷ the tolerance it had to meet (≤ 1:
+        converged; 0 without deposition), volume rate set to 0 on negative fluxes, rates of
+        erosion and deposition Σ max(0, ±(U − Δh/dt))·A over the free cells and of outflux
+        Σ Qs over the outlets (m³/y)).
+    """
+    ny, nx = zf.shape
+    z = zf.ravel()
+    out = outlets.ravel()
+    off = neighbour_offsets(nx)
+    inv_dist = inverse_distances(dx, dy)
+    size = order.size
+    area = dx * dy
+    h0p, hnp, depp, qsp, coefp, trap = work[0], work[1], work[2], work[3], work[4], work[5]
+    start = _mfd_starts(z, out, order, ny, nx, off, inv_dist, position)
+    rcv = np.empty(start[size], dtype=order.dtype)
+    share = np.empty(start[size], dtype=np.float64)
+    code = np.empty(start[size], dtype=np.int8)
+    depositing = _mfd_layout(h0, z, out, order, ny, nx, off, inv_dist, q, gradient, k, n, m, k_d, dt, dep,
+                             area, position, start, rcv, share, code, h0p, hnp, depp, coefp, trap)
+    passes = 0
+    ratio = 0.0
+    clipped = 0.0
+    eroded = 0.0
+    deposited = 0.0
+    relax = 1.0
+    previous = math.inf
+    stalled = 0
+    for _ in range(max_iter):
+        passes += 1
+        _mfd_receivers_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, h0p, hnp, depp,
+                            coefp, n)
+        change, largest, clipped, eroded, deposited = _mfd_sediment_pass(
+            order, out, start, rcv, share, code, inv_dist, uplift, dt, qs_in, depositing, relax, area,
+            h0p, hnp, depp, coefp, trap, qsp, n)
+        tol = max(atol, rtol * largest)
+        ratio = change / tol
+        if change <= tol:
+            break
+        previous, stalled, relax = _relaxation(change, previous, stalled, relax)
+    return passes, ratio, clipped, eroded, deposited, _scatter(order, out, hnp, qsp, depp, hn, qs, dep)
+
+
+@numba.njit(cache=True)
+def _mfd_starts(z, out, order, ny, nx, off, inv_dist, position):
+    """position[order[p]] = p, and where each position's receivers start in the lists
+    (int64[order.size + 1])."""
+    size = order.size
+    for p in range(size):
+        position[order[p]] = p
+    start = np.empty(size + 1, dtype=np.int64)
+    frac = np.empty(8, dtype=np.float64)
+    start[0] = 0
+    for p in range(size):
+        i = order[p]
+        count = 0
+        if not out[i]:
+            flow_fractions(z, i, ny, nx, off, inv_dist, False, frac)
+            for kk in range(8):
+                count += frac[kk] > 0.0
+        start[p + 1] = start[p] + count
+    return start
+
+
+@numba.njit(cache=True)
+def _scatter(order, out, hnp, qsp, depp, hn, qs, dep):
+    """Elevations, fluxes and deposition rates back from positions to cells; returns the
+    outflux (m³/y), Σ Qs over the outlets."""
+    outflow = 0.0
+    for p in range(order.size):
+        i = order[p]
+        hn[i] = hnp[p]
+        qs[i] = qsp[p]
+        dep[i] = depp[p]
+        if out[i]:
+            outflow += qsp[p]
+    return outflow
+
+
+@numba.njit(cache=True, inline="always")
+def _mfd_gather(p, start, rcv, share, code, inv_dist, hnp, hr, a):
+    """The receivers of position ``p``: elevations from ``hnp`` into ``hr``, weights w_k / L_k
+    into ``a``; returns their count."""
+    count = 0
+    for j in range(start[p], start[p + 1]):
+        hr[count] = hnp[rcv[j]]
+        a[count] = share[j] * inv_dist[code[j]]
+        count += 1
+    return count
+
+
+@numba.njit(cache=True)
+def _mfd_receivers_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, h0p, hnp, depp, coefp,
+                        n):
+    """Receivers first, on arrays by position in ``order``."""
+    hr = np.empty(8, dtype=np.float64)
+    a = np.empty(8, dtype=np.float64)
+    for p in range(order.size - 1, -1, -1):
+        if out[order[p]]:
+            continue
+        count = _mfd_gather(p, start, rcv, share, code, inv_dist, hnp, hr, a)
+        hnp[p] = solve_cell(h0p[p] + dt * (_at(uplift, order[p]) + depp[p]), hr, a, count, coefp[p], n)
+
+
+@numba.njit(cache=True)
+def _mfd_sediment_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, qs_in, depositing, relax,
+                       area, h0p, hnp, depp, coefp, trap, qsp, n):
+    """Donors first, on arrays by position in ``order``: the sediment arriving at each cell
+    sets its deposition rate (relaxed by ``relax``), the cell is solved again with it (from its
+    receivers' current elevations: sediment news travel down in this pass as base-level news
+    travel up in the other, a symmetric Gauss–Seidel sweep), and what it lost,
+    Qs = Q̃s + (U − Δh/dt)·A, goes on to its receivers. Returns (largest change of D·dt (m),
+    largest |Δh| (m), volume rate set to 0 on negative fluxes, erosion and deposition rates
+    (m³/y))."""
+    hr = np.empty(8, dtype=np.float64)
+    a = np.empty(8, dtype=np.float64)
+    change = 0.0
+    clipped = 0.0
+    largest = 0.0
+    eroded = 0.0
+    deposited = 0.0
+    for p in range(order.size):
+        qsp[p] = qs_in[order[p]] if qs_in.size > 1 else 0.0
+    for p in range(order.size):
+        if out[order[p]]:
+            continue
+        arriving = qsp[p]
+        u = _at(uplift, order[p])
+        if depositing:
+            fresh = arriving * trap[p]
+            change = max(change, abs(fresh - depp[p]) * dt)
+            depp[p] += relax * (fresh - depp[p])
+            count = _mfd_gather(p, start, rcv, share, code, inv_dist, hnp, hr, a)
+            hnp[p] = solve_cell(h0p[p] + dt * (u + depp[p]), hr, a, count, coefp[p], n)
+        step = hnp[p] - h0p[p]
+        lost = u - step / dt
+        largest = max(largest, abs(step))
+        eroded += max(lost, 0.0) * area
+        deposited += max(-lost, 0.0) * area
+        leaving = arriving + lost * area
+        if leaving < 0.0:
+            clipped -= leaving
+            leaving = 0.0
+        qsp[p] = leaving
+        for j in range(start[p], start[p + 1]):
+            qsp[rcv[j]] += share[j] * leaving
+    return change, largest, clipped, eroded, deposited
+
+
+@numba.njit(cache=True)
+def _mfd_layout(h0, z, out, order, ny, nx, off, inv_dist, q, gradient, k, n, m, k_d, dt, dep, area,
+                position, start, rcv, share, code, h0p, hnp, depp, coefp, trap):
+    """The MFD step's arrays by position in ``order`` (as ``_d8_layout``), each cell's
+    receivers listed from ``start[p]`` to ``start[p + 1]``, and K·Q^m·dt scaled to 000 Eq. 9's
+    gradient (c = |∇h| / the weighted receiver slope, K·Q^m·dt·c^n); 0 under a lake of the
+    routing surface (or raised across a flat), where the water stands, the sediment settles and
+    nothing is incised. Returns whether any K_d > 0."""
+    frac = np.empty(8, dtype=np.float64)
+    depositing = False
+    inv_area = 1.0 / area
+    for p in range(order.size):
+        i = order[p]
+        h0p[p] = h0[i]
+        hnp[p] = h0[i]
+        depp[p] = dep[i]
+        water = q[i]
+        kd = _at(k_d, i)
+        depositing = depositing or kd > 0.0
+        if water > 0.0:
+            trap[p] = min(kd / water, inv_area)
+        else:
+            trap[p] = inv_area if kd > 0.0 else 0.0
+        coefp[p] = 0.0
+        if out[i]:
+            continue
+        flow_fractions(z, i, ny, nx, off, inv_dist, False, frac)
+        j = start[p]
+        weighted = 0.0
+        for kk in range(8):
+            if frac[kk] > 0.0:
+                rcv[j] = position[i + off[kk]]
+                share[j] = frac[kk]
+                code[j] = kk
+                weighted += frac[kk] * inv_dist[kk] * max(h0[i] - h0[i + off[kk]], 0.0)
+                j += 1
+        if water > 0.0 and not z[i] > h0[i]:
+            c = _at(k, i) * math.exp2(m * math.log2(water)) * dt
+            if weighted > 0.0:
+                ratio = gradient[i] / weighted
+                c *= ratio if n == 1.0 else ratio**n
+            coefp[p] = c
     return depositing

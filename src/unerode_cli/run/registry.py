@@ -81,8 +81,8 @@ class FluvialProcess:
     never sub-stepped), ``"explicit"`` (``fluvial.step``, sub-stepped to its CFL bound), or
     ``"auto"``: on the first forward step, implicit where the explicit scheme would need more
     sub-steps than an implicit step costs (:data:`AUTO_SUBSTEPS`), else explicit, kept for the
-    whole run (``chosen``); backward steps are explicit with the slope ``scheme``. The explicit stability check
-    computes the step itself and reads the CFL bound off its discharge; the step is kept, so
+    whole run (``chosen``); backward steps are explicit with the slope ``scheme``. The explicit
+    stability check computes the step itself and reads the CFL bound off its discharge; the step is kept, so
     that ``advance`` with the same elevation and dt (no sub-steps, the usual case) costs
     nothing more. A step that needs sub-steps wastes that one step. ``inflow``: rivers entering
     the map (000 §6.3.1), or None. ``passes`` counts the passes of the implicit steps'
