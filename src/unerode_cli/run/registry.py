@@ -68,9 +68,9 @@ def _change(dh: np.ndarray, budget: MassBudget) -> Change:
 
 #: ``"auto"`` runs implicit where the explicit scheme would need more sub-steps a step than
 #: this (without deposition, with it): the cost of one implicit step in explicit sub-steps,
-#: measured at 256²–4096² (bench/fluvial_implicit.py, docs/erode.md): one pass costs 2–3
-#: sub-steps; with deposition its 3–6 pairs of passes 6–9.
-AUTO_SUBSTEPS = {False: 3, True: 8}
+#: measured at 1024² and 2048² (bench/fluvial_implicit.py, docs/erode.md): 1.3–2 without
+#: deposition (one pass), 1.5–4 with it (3–6 pairs of passes; MFD the dearer).
+AUTO_SUBSTEPS = {False: 2, True: 4}
 
 
 @dataclass

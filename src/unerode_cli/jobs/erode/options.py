@@ -50,7 +50,7 @@ OPTIONS = (
         "< 0 erosion, > 0 deposition.", role="output", record=False),
     Opt("scheme", str, None, "Fluvial scheme. erode: implicit (Braun & Willett 2013 with Yuan et al. "
         "2019's deposition, stable at any --dt), explicit (000 Eq. 9, sub-stepped to its CFL bound), or auto "
-        "(default: implicit where the explicit scheme would need more than 8 sub-steps a step, 3 without "
+        "(default: implicit where the explicit scheme would need more than 4 sub-steps a step, 2 without "
         "deposition, decided on the first step). unerode: the slope of backward fluvial and thermal steps, "
         "limiter (default; 000 Eq. 12) or upwind (Eq. 10).", choices=SCHEMES),
     Opt("thermal_constraints", str, ",".join(thermal.CONSTRAINTS), "Un-deposition constraints of "
