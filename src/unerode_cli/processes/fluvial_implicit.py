@@ -147,7 +147,7 @@ def _sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, 
            discharge: np.ndarray, k: np.ndarray, uplift: np.ndarray, sediment_in: np.ndarray,
            inflowing: bool, rtol: float, max_passes: int, new: np.ndarray, sediment_flux: np.ndarray,
            rates: np.ndarray) -> tuple[int, float, float, float, float]:
-    """The kernel of the step: D8 on arrays in the routing's order, MFD on the grid. Fills
+    """The kernel of the step, on arrays in the routing's order. Fills
     ``new``, ``sediment_flux`` and ``rates`` (flat); returns (passes, residual, erosion,
     deposition and outflux rates in m³/y)."""
     from unerode_cli.hydro.fields import flat_field
@@ -156,20 +156,12 @@ def _sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, 
 
     shape, order = grid.shape, routing.order
     fields = (flat_field(params.k_d, shape, "k_d"), uplift, float(dt))
-    if routing.single:
-        done = fik.d8_sweep_into(
-            h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, discharge, k, float(params.n),
-            float(params.m), *fields, sediment_in if inflowing else np.zeros(1), float(rtol), ATOL,
-            int(max_passes), new, sediment_flux, rates,
-            scratch("fluvial_implicit.work", (6, order.size), np.float64),
-            scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
-    else:
-        done = fik.mfd_sweep_into(
-            h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, discharge,
-            _gradient(h0.reshape(shape), grid, routing.single), k, float(params.n), float(params.m),
-            *fields, sediment_in if inflowing else np.zeros(1), float(rtol), ATOL, int(max_passes), new,
-            sediment_flux, rates, scratch("fluvial_implicit.work", (6, order.size), np.float64),
-            scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
+    done = fik.implicit_sweep_into(
+        h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single, discharge,
+        _gradient(h0.reshape(shape), grid, routing.single), k, float(params.n), float(params.m),
+        *fields, sediment_in if inflowing else np.zeros(1), float(rtol), ATOL, int(max_passes), new,
+        sediment_flux, rates, scratch("fluvial_implicit.work", (6, order.size), np.float64),
+        scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
     passes, residual, _clipped, eroded, deposited, outflow = done
     return int(passes), float(residual), float(eroded), float(deposited), float(outflow)
 

@@ -12,16 +12,11 @@ import numba
 import numpy as np
 
 from unerode_cli.hydro.kernels import flow_fractions, inverse_distances, neighbour_offsets
+from unerode_cli.processes.fluvial_kernels import _at
 
 #: Bisection–Newton iterations of one cell's equation for n ≠ 1 (each at least halves the
 #: bracket, so 200 reach the last bit of any float64 bracket).
 CELL_ITERATIONS = 200
-
-
-@numba.njit(cache=True, inline="always")
-def _at(field, i):
-    """Value of a scalar-or-raster field at flat index ``i``."""
-    return field[0] if field.size == 1 else field[i]
 
 
 @numba.njit(cache=True, inline="always")
@@ -55,6 +50,12 @@ def solve_cell(base, hr, a, count, coef, n):
     is unique and lies in [min hr, base]; with n = 1 it is found exactly on the set of receivers
     below it, else by Newton steps kept inside a shrinking bracket (bisection where a step
     leaves it). A cell at or below all its receivers is not incised (h = base)."""
+    if count == 1 and n == 1.0:
+        # one receiver (D8): Braun & Willett's (h + F·h_r) / (1 + F), F = coef·a
+        if coef <= 0.0 or base <= hr[0]:
+            return base
+        f = coef * a[0]
+        return (base + f * hr[0]) / (1.0 + f)
     low = math.inf
     for k in range(count):
         low = min(low, hr[k])
@@ -111,150 +112,34 @@ def _relaxation(change, previous, stalled, relax):
     return previous, stalled, relax
 
 
-@numba.njit(cache=True)
-def d8_sweep_into(h0, zf, outlets, order, dx, dy, q, k, n, m, k_d, uplift, dt, qs_in, rtol, atol,
-                  max_iter, hn, qs, dep, work, position):
-    """``mfd_sweep_into`` with one receiver per cell (D8), the steepest, and the slope to it
-    unscaled (Braun & Willett 2013): same arguments without ``gradient``, same results."""
-    ny, nx = zf.shape
-    z = zf.ravel()
-    out = outlets.ravel()
-    off = neighbour_offsets(nx)
-    inv_dist = inverse_distances(dx, dy)
-    size = order.size
-    area = dx * dy
-    h0p, hnp, depp, qsp, coefp, trap = work[0], work[1], work[2], work[3], work[4], work[5]
-    receiver = np.empty(size, dtype=order.dtype)   # position of the receiver; -1 none, -2 outlet
-    depositing = _d8_layout(h0, z, out, order, ny, nx, off, inv_dist, q, k, n, m, k_d, dt, dep, area,
-                            position, receiver, h0p, hnp, depp, coefp, trap)
-    passes = 0
-    ratio = 0.0
-    clipped = 0.0
-    eroded = 0.0
-    deposited = 0.0
-    relax = 1.0
-    previous = math.inf
-    stalled = 0
-    for _ in range(max_iter):
-        passes += 1
-        _d8_receivers_pass(order, receiver, uplift, dt, h0p, hnp, depp, coefp, n)
-        change, largest, clipped, eroded, deposited = _d8_sediment_pass(
-            order, receiver, uplift, dt, qs_in, depositing, relax, area, h0p, hnp, depp, coefp, trap,
-            qsp, n)
-        tol = max(atol, rtol * largest)
-        ratio = change / tol
-        if change <= tol:
-            break
-        previous, stalled, relax = _relaxation(change, previous, stalled, relax)
-    return passes, ratio, clipped, eroded, deposited, _scatter(order, out, hnp, qsp, depp, hn, qs, dep)
-
-
-@numba.njit(cache=True)
-def _d8_receivers_pass(order, receiver, uplift, dt, h0p, hnp, depp, coefp, n):
-    """Receivers first, on arrays by position in ``order`` (see ``d8_sweep_into``)."""
-    for p in range(order.size - 1, -1, -1):
-        r = receiver[p]
-        if r == -2:
-            continue
-        base = h0p[p] + dt * (_at(uplift, order[p]) + depp[p])
-        hnp[p] = base if r < 0 else _d8_solve(base, hnp[r], coefp[p], n)
-
-
-@numba.njit(cache=True)
-def _d8_sediment_pass(order, receiver, uplift, dt, qs_in, depositing, relax, area, h0p, hnp, depp, coefp,
-                      trap, qsp, n):
-    """Donors first, on arrays by position in ``order``: ``_mfd_sediment_pass`` for D8."""
-    change = 0.0
-    clipped = 0.0
-    largest = 0.0
-    eroded = 0.0
-    deposited = 0.0
-    for p in range(order.size):
-        qsp[p] = qs_in[order[p]] if qs_in.size > 1 else 0.0
-    for p in range(order.size):
-        r = receiver[p]
-        if r == -2:
-            continue
-        arriving = qsp[p]
-        u = _at(uplift, order[p])
-        if depositing:
-            fresh = arriving * trap[p]
-            change = max(change, abs(fresh - depp[p]) * dt)
-            depp[p] += relax * (fresh - depp[p])
-            base = h0p[p] + dt * (u + depp[p])
-            hnp[p] = base if r < 0 else _d8_solve(base, hnp[r], coefp[p], n)
-        step = hnp[p] - h0p[p]
-        lost = u - step / dt
-        largest = max(largest, abs(step))
-        eroded += max(lost, 0.0) * area
-        deposited += max(-lost, 0.0) * area
-        leaving = arriving + lost * area
-        if leaving < 0.0:
-            clipped -= leaving
-            leaving = 0.0
-        qsp[p] = leaving
-        if r >= 0:
-            qsp[r] += leaving
-    return change, largest, clipped, eroded, deposited
+@numba.njit(cache=True, inline="always")
+def _leaving(arriving, u, start, end, dt, area):
+    """(Qs leaving a cell, its Δh, its net loss (U − Δh/dt)·A): what arrived plus what the cell
+    lost over the step (m³/y, m, m³/y); Qs < 0 only before convergence (the caller clips it)."""
+    step = end - start
+    lost = (u - step / dt) * area
+    return arriving + lost, step, lost
 
 
 @numba.njit(cache=True, inline="always")
-def _d8_solve(base, receiver, coef, n):
-    """``solve_cell`` for one receiver with weight folded into ``coef`` (K·Q^m·dt / L^n)."""
-    if base <= receiver or coef <= 0.0:
-        return base
-    if n == 1.0:
-        return (base + coef * receiver) / (1.0 + coef)
-    hr = np.empty(1)
-    a = np.ones(1)
-    hr[0] = receiver
-    return solve_cell(base, hr, a, 1, coef, n)
+def _gather_cell(p, i, h0, dep, water, k_d, inv_area, h0p, hnp, depp, trap):
+    """Position ``p`` of the in-order arrays from cell ``i``: start elevation, first deposition
+    rate, and the trapping min(K_d/Q, 1/A) (000 Eq. 8, capped at what arrives); returns K_d > 0."""
+    h0p[p] = h0[i]
+    hnp[p] = h0[i]
+    depp[p] = dep[i]
+    kd = _at(k_d, i)
+    if water > 0.0:
+        trap[p] = min(kd / water, inv_area)
+    else:
+        trap[p] = inv_area if kd > 0.0 else 0.0
+    return kd > 0.0
 
 
 @numba.njit(cache=True)
-def _d8_layout(h0, z, out, order, ny, nx, off, inv_dist, q, k, n, m, k_d, dt, dep, area, position,
-               receiver, h0p, hnp, depp, coefp, trap):
-    """The D8 step's arrays by position in ``order``: start elevations, deposition rates (from
-    ``dep``), K·Q^m·dt / L^n (0 under a lake of the routing surface), the trapping
-    min(K_d/Q, 1/A), and each cell's receiver position (-1 none, -2 outlet). Returns whether
-    any K_d > 0."""
-    frac = np.empty(8, dtype=np.float64)
-    for p in range(order.size):
-        position[order[p]] = p
-    depositing = False
-    inv_area = 1.0 / area
-    for p in range(order.size):
-        i = order[p]
-        h0p[p] = h0[i]
-        hnp[p] = h0[i]
-        depp[p] = dep[i]
-        water = q[i]
-        kd = _at(k_d, i)
-        depositing = depositing or kd > 0.0
-        if water > 0.0:
-            trap[p] = min(kd / water, inv_area)
-        else:
-            trap[p] = inv_area if kd > 0.0 else 0.0
-        if out[i]:
-            receiver[p] = -2
-            coefp[p] = 0.0
-            continue
-        receiver[p] = -1
-        coefp[p] = 0.0
-        flow_fractions(z, i, ny, nx, off, inv_dist, True, frac)
-        for kk in range(8):
-            if frac[kk] > 0.0:
-                receiver[p] = position[i + off[kk]]
-                if water > 0.0 and not z[i] > h0[i]:
-                    c = _at(k, i) * math.exp2(m * math.log2(water)) * dt
-                    coefp[p] = c * (inv_dist[kk] if n == 1.0 else inv_dist[kk] ** n)
-    return depositing
-
-
-@numba.njit(cache=True)
-def mfd_sweep_into(h0, zf, outlets, order, dx, dy, q, gradient, k, n, m, k_d, uplift, dt, qs_in, rtol,
-                   atol, max_iter, hn, qs, dep, work, position):
-    """One implicit forward step of 000 Eq. 3 (dt > 0) with multiple flow directions (MFD).
+def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, n, m, k_d, uplift, dt,
+                        qs_in, rtol, atol, max_iter, hn, qs, dep, work, position):
+    """One implicit forward step of 000 Eq. 3 (dt > 0).
 
     Stream power, implicit in the new elevations (Braun & Willett 2013): in a pass over the
     cells, receivers first, each cell's end-of-step elevation solves ``solve_cell`` with its
@@ -276,11 +161,11 @@ def mfd_sweep_into(h0, zf, outlets, order, dx, dy, q, gradient, k, n, m, k_d, up
 
     Args:
         h0: float64[ny*nx] elevation at the start (m).
-        zf, outlets, order, dx, dy: the routing of ``h0`` (``unerode_cli.hydro``); the
+        zf, outlets, order, dx, dy, single: the routing of ``h0`` (``unerode_cli.hydro``); the
             receivers and their weights are those of ``zf``, kept through the step.
         q: float64[ny*nx] discharge Q (m³/y).
         gradient: float64[ny*nx] |∇h| of ``h0`` (000 Eq. 9) to which each cell's weighted
-            receiver slope is scaled at the start of the step.
+            receiver slope is scaled at the start of the step (MFD), or float64[0]: no scaling.
         k: field K; n, m: exponents; k_d: field K_d (m/y); uplift: field U (m/y); dt: step (y).
         qs_in: float64[ny*nx] sediment flux entering each cell from outside the map (m³/y),
             or float64[1] for none; rtol, atol, max_iter: as above.
@@ -305,12 +190,12 @@ def mfd_sweep_into(h0, zf, outlets, order, dx, dy, q, gradient, k, n, m, k_d, up
     size = order.size
     area = dx * dy
     h0p, hnp, depp, qsp, coefp, trap = work[0], work[1], work[2], work[3], work[4], work[5]
-    start = _mfd_starts(z, out, order, ny, nx, off, inv_dist, position)
+    start = _starts(z, out, order, ny, nx, off, inv_dist, single, position)
     rcv = np.empty(start[size], dtype=order.dtype)
     share = np.empty(start[size], dtype=np.float64)
     code = np.empty(start[size], dtype=np.int8)
-    depositing = _mfd_layout(h0, z, out, order, ny, nx, off, inv_dist, q, gradient, k, n, m, k_d, dt, dep,
-                             area, position, start, rcv, share, code, h0p, hnp, depp, coefp, trap)
+    depositing = _layout(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n, m, k_d, dt,
+                         dep, area, position, start, rcv, share, code, h0p, hnp, depp, coefp, trap)
     passes = 0
     ratio = 0.0
     clipped = 0.0
@@ -321,9 +206,9 @@ def mfd_sweep_into(h0, zf, outlets, order, dx, dy, q, gradient, k, n, m, k_d, up
     stalled = 0
     for _ in range(max_iter):
         passes += 1
-        _mfd_receivers_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, h0p, hnp, depp,
+        _receivers_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, h0p, hnp, depp,
                             coefp, n)
-        change, largest, clipped, eroded, deposited = _mfd_sediment_pass(
+        change, largest, clipped, eroded, deposited = _sediment_pass(
             order, out, start, rcv, share, code, inv_dist, uplift, dt, qs_in, depositing, relax, area,
             h0p, hnp, depp, coefp, trap, qsp, n)
         tol = max(atol, rtol * largest)
@@ -335,7 +220,7 @@ def mfd_sweep_into(h0, zf, outlets, order, dx, dy, q, gradient, k, n, m, k_d, up
 
 
 @numba.njit(cache=True)
-def _mfd_starts(z, out, order, ny, nx, off, inv_dist, position):
+def _starts(z, out, order, ny, nx, off, inv_dist, single, position):
     """position[order[p]] = p, and where each position's receivers start in the lists
     (int64[order.size + 1])."""
     size = order.size
@@ -347,8 +232,11 @@ def _mfd_starts(z, out, order, ny, nx, off, inv_dist, position):
     for p in range(size):
         i = order[p]
         count = 0
-        if not out[i]:
-            flow_fractions(z, i, ny, nx, off, inv_dist, False, frac)
+        if single:
+            # the routing gives every cell but the outlets a strictly lower neighbour
+            count = 0 if out[i] else 1
+        elif not out[i]:
+            flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
             for kk in range(8):
                 count += frac[kk] > 0.0
         start[p + 1] = start[p] + count
@@ -371,7 +259,7 @@ def _scatter(order, out, hnp, qsp, depp, hn, qs, dep):
 
 
 @numba.njit(cache=True, inline="always")
-def _mfd_gather(p, start, rcv, share, code, inv_dist, hnp, hr, a):
+def _gather(p, start, rcv, share, code, inv_dist, hnp, hr, a):
     """The receivers of position ``p``: elevations from ``hnp`` into ``hr``, weights w_k / L_k
     into ``a``; returns their count."""
     count = 0
@@ -383,7 +271,7 @@ def _mfd_gather(p, start, rcv, share, code, inv_dist, hnp, hr, a):
 
 
 @numba.njit(cache=True)
-def _mfd_receivers_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, h0p, hnp, depp, coefp,
+def _receivers_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, h0p, hnp, depp, coefp,
                         n):
     """Receivers first, on arrays by position in ``order``."""
     hr = np.empty(8, dtype=np.float64)
@@ -391,12 +279,12 @@ def _mfd_receivers_pass(order, out, start, rcv, share, code, inv_dist, uplift, d
     for p in range(order.size - 1, -1, -1):
         if out[order[p]]:
             continue
-        count = _mfd_gather(p, start, rcv, share, code, inv_dist, hnp, hr, a)
+        count = _gather(p, start, rcv, share, code, inv_dist, hnp, hr, a)
         hnp[p] = solve_cell(h0p[p] + dt * (_at(uplift, order[p]) + depp[p]), hr, a, count, coefp[p], n)
 
 
 @numba.njit(cache=True)
-def _mfd_sediment_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, qs_in, depositing, relax,
+def _sediment_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, qs_in, depositing, relax,
                        area, h0p, hnp, depp, coefp, trap, qsp, n):
     """Donors first, on arrays by position in ``order``: the sediment arriving at each cell
     sets its deposition rate (relaxed by ``relax``), the cell is solved again with it (from its
@@ -423,17 +311,14 @@ def _mfd_sediment_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt
             fresh = arriving * trap[p]
             change = max(change, abs(fresh - depp[p]) * dt)
             depp[p] += relax * (fresh - depp[p])
-            count = _mfd_gather(p, start, rcv, share, code, inv_dist, hnp, hr, a)
+            count = _gather(p, start, rcv, share, code, inv_dist, hnp, hr, a)
             hnp[p] = solve_cell(h0p[p] + dt * (u + depp[p]), hr, a, count, coefp[p], n)
-        step = hnp[p] - h0p[p]
-        lost = u - step / dt
+        leaving, step, lost = _leaving(arriving, u, h0p[p], hnp[p], dt, area)
         largest = max(largest, abs(step))
-        eroded += max(lost, 0.0) * area
-        deposited += max(-lost, 0.0) * area
-        leaving = arriving + lost * area
-        if leaving < 0.0:
-            clipped -= leaving
-            leaving = 0.0
+        eroded += max(lost, 0.0)
+        deposited += max(-lost, 0.0)
+        clipped += max(-leaving, 0.0)
+        leaving = max(leaving, 0.0)
         qsp[p] = leaving
         for j in range(start[p], start[p + 1]):
             qsp[rcv[j]] += share[j] * leaving
@@ -441,10 +326,11 @@ def _mfd_sediment_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt
 
 
 @numba.njit(cache=True)
-def _mfd_layout(h0, z, out, order, ny, nx, off, inv_dist, q, gradient, k, n, m, k_d, dt, dep, area,
+def _layout(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n, m, k_d, dt, dep, area,
                 position, start, rcv, share, code, h0p, hnp, depp, coefp, trap):
-    """The MFD step's arrays by position in ``order`` (as ``_d8_layout``), each cell's
-    receivers listed from ``start[p]`` to ``start[p + 1]``, and K·Q^m·dt scaled to 000 Eq. 9's
+    """The step's arrays by position in ``order`` (start elevations, first deposition rates,
+    trapping), each cell's receivers listed from ``start[p]`` to ``start[p + 1]`` (positions,
+    flow fractions, neighbour numbers; one with D8), and K·Q^m·dt, with MFD scaled to 000 Eq. 9's
     gradient (c = |∇h| / the weighted receiver slope, K·Q^m·dt·c^n); 0 under a lake of the
     routing surface (or raised across a flat), where the water stands, the sediment settles and
     nothing is incised. Returns whether any K_d > 0."""
@@ -453,20 +339,12 @@ def _mfd_layout(h0, z, out, order, ny, nx, off, inv_dist, q, gradient, k, n, m, 
     inv_area = 1.0 / area
     for p in range(order.size):
         i = order[p]
-        h0p[p] = h0[i]
-        hnp[p] = h0[i]
-        depp[p] = dep[i]
         water = q[i]
-        kd = _at(k_d, i)
-        depositing = depositing or kd > 0.0
-        if water > 0.0:
-            trap[p] = min(kd / water, inv_area)
-        else:
-            trap[p] = inv_area if kd > 0.0 else 0.0
+        depositing = _gather_cell(p, i, h0, dep, water, k_d, inv_area, h0p, hnp, depp, trap) or depositing
         coefp[p] = 0.0
         if out[i]:
             continue
-        flow_fractions(z, i, ny, nx, off, inv_dist, False, frac)
+        flow_fractions(z, i, ny, nx, off, inv_dist, single, frac)
         j = start[p]
         weighted = 0.0
         for kk in range(8):
@@ -478,7 +356,7 @@ def _mfd_layout(h0, z, out, order, ny, nx, off, inv_dist, q, gradient, k, n, m, 
                 j += 1
         if water > 0.0 and not z[i] > h0[i]:
             c = _at(k, i) * math.exp2(m * math.log2(water)) * dt
-            if weighted > 0.0:
+            if weighted > 0.0 and gradient.size > 0:
                 ratio = gradient[i] / weighted
                 c *= ratio if n == 1.0 else ratio**n
             coefp[p] = c
