@@ -18,6 +18,11 @@ L_k), with c set per cell so that S equals 000 Eq. 9's |∇h| at the start of th
 weighted sum alone is a fixed share of the gradient (2/(1+√2) ≈ 0.83 on an axis-aligned plane),
 which would erode less than the law asks for.
 
+A cell whose elevation lies below the routing surface (under a lake of the depression filling)
+is not incised: the water stands and the sediment arriving settles there by K_d/Q. (Incising
+such cells at the slope of the real surface, as the explicit step does, makes the deposition
+iteration cycle: their receivers on the filled surface are arbitrary.)
+
 Backward steps (unerosion) keep the explicit limiter scheme of ``fluvial.step``.
 """
 
