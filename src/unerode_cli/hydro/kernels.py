@@ -24,13 +24,18 @@ FILL_EPSILON = 1e-9
 
 
 @numba.njit(cache=True)
-def same_words(a, b):
-    """Whether the 1-d arrays ``a`` and ``b`` (same size) hold the same words, e.g. float64
-    bits viewed as uint64; stops at the first difference."""
-    for i in range(a.size):
-        if a[i] != b[i]:
-            return False
-    return True
+def fingerprint_words(words):
+    """A 64-bit fingerprint of the 1-d uint64 array ``words`` (e.g. float64 bits): each word
+    is mixed in by h ← rotl(h ⊕ w·k₁, 31)·k₂ (odd k₂), a bijection of h for a given word, so
+    two arrays of the same size that differ in a single word always differ in fingerprint;
+    others collide with a chance of about 2⁻⁶⁴."""
+    k1 = np.uint64(0x9E3779B185EBCA87)
+    k2 = np.uint64(0xC2B2AE3D27D4EB4F)
+    h = np.uint64(0x27D4EB2F165667C5)
+    for i in range(words.size):
+        h ^= words[i] * k1
+        h = ((h << np.uint64(31)) | (h >> np.uint64(33))) * k2
+    return h ^ np.uint64(words.size)
 
 
 @numba.njit(cache=True)
@@ -221,6 +226,9 @@ def flood_into(z, valid, outlets, zf, descending, closed, first, following, heap
         if pit_head < pit_tail and (size == 0 or zf[pit[pit_head]] < heap[0, 0]):
             c = pit[pit_head]
             pit_head += 1
+            if pit_head == pit_tail:  # empty: start again at the front (touches fewer pages)
+                pit_head = 0
+                pit_tail = 0
         elif size > 0:
             c, size = _heap_pop(heap, size)
         else:

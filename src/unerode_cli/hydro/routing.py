@@ -41,6 +41,11 @@ def scratch(name: str, shape: tuple[int, ...], dtype: type) -> np.ndarray:
     return array
 
 
+def release_scratch() -> None:
+    """Drop this thread's work arrays (a one-shot job that has routed for the last time)."""
+    _SCRATCH.arrays.clear()
+
+
 @dataclass(frozen=True)
 class Routing:
     """How water flows over one surface.
@@ -86,11 +91,15 @@ class Routing:
         return fractions.reshape(*grid.shape, 8)
 
 
-def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method = "mfd") -> Routing:
-    """Route flow over ``elevation`` (m) towards ``outlets``; the elevation is not modified.
+def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method = "mfd",
+          filled: np.ndarray | None = None) -> Routing:
+    """Route flow over ``elevation`` (m) towards ``outlets``.
 
-    Depressions are handled by priority-flood+ε on a copy (Barnes et al. 2014), so every valid
+    Depressions are handled by priority-flood+ε (Barnes et al. 2014) on a copy, so every valid
     non-outlet cell has at least one strictly lower valid neighbour on the routing surface.
+    The copy is a new array, or ``filled`` (float64[ny, nx], C-contiguous) when given, which
+    may be ``elevation`` itself: a one-shot caller that needs the elevation no more saves a
+    grid of float64 (the routing surface replaces the elevation, +inf on nodata).
 
     Raises:
         ValueError: unknown method, shape mismatch, no outlet, non-finite elevation in the
@@ -102,7 +111,10 @@ def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method
     z, outlets = flood_inputs(elevation, grid, outlets)
     n = z.size
     index = np.int32 if n < 2**31 else np.int64  # cell indices in the work arrays
-    filled = np.empty(grid.shape, dtype=np.float64)
+    if filled is None:
+        filled = np.empty(grid.shape, dtype=np.float64)
+    elif filled.shape != grid.shape or filled.dtype != np.float64 or not filled.flags.c_contiguous:
+        raise ValueError("the routing surface must be a C-contiguous float64 array of the grid's shape")
     descending = np.empty(n, dtype=index)
     count = kernels.flood_into(
         z,
@@ -147,15 +159,13 @@ def require_all_reached(valid: np.ndarray, count: int) -> None:
         )
 
 
-def same_values(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether ``a`` and ``b`` (elevations, m) hold the same float64 values bit for bit, NaN
-    included, so that they route alike; at memory speed and stopping at the first difference
-    (``np.array_equal`` compares every cell, allocates, and finds NaN different from NaN)."""
-    if a.shape != b.shape:
-        return False
-    words_a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1).view(np.uint64)
-    words_b = np.ascontiguousarray(b, dtype=np.float64).reshape(-1).view(np.uint64)
-    return bool(kernels.same_words(words_a, words_b))
+def fingerprint(values: np.ndarray) -> tuple[tuple[int, ...], int]:
+    """(shape, 64-bit fingerprint of the float64 bits) of ``values`` (elevations, m; NaN
+    included): equal for the same values bit for bit; a change of one cell always changes it,
+    any other change but for a chance of about 2⁻⁶⁴ (``kernels.fingerprint_words``). Takes
+    one pass at memory speed and no copy of the grid."""
+    words = np.ascontiguousarray(values, dtype=np.float64).reshape(-1).view(np.uint64)
+    return tuple(values.shape), int(kernels.fingerprint_words(words))
 
 
 def accumulate(routing: Routing, source: float | np.ndarray) -> np.ndarray:

@@ -24,7 +24,6 @@ from pyproj import CRS
 from rasterio._err import CPLE_BaseError  # what GDAL's copy raises (not re-exported publicly)
 from rasterio.crs import CRS as RioCRS
 from rasterio.errors import NotGeoreferencedWarning, RasterioError, RasterioIOError
-from rasterio.io import MemoryFile
 from rasterio.windows import Window
 
 from unerode_cli.errors import InputError
@@ -117,10 +116,11 @@ class WriteOptions:
     creation_options: dict[str, str] = field(default_factory=dict)
 
 
-#: Peak bytes per cell that :func:`read_gdal` holds besides the cells as stored: the float64
-#: elevations (8), the band's mask and its "valid" copy (2), and the non-finite mask with its
-#: temporaries (3).
-READ_BYTES_PER_CELL = 13
+#: Peak bytes per cell of :func:`read_gdal`: the float64 elevations; the band is read in strips
+#: of :data:`STRIP_CELLS` cells, cast by GDAL straight into them.
+READ_BYTES_PER_CELL = 8
+#: Cells of one strip of rows read or written at a time (whole rows, at least one).
+STRIP_CELLS = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -139,8 +139,9 @@ class GdalHeader:
 
     @property
     def read_bytes_per_cell(self) -> int:
-        """Peak bytes per cell of reading it with :func:`read_gdal`."""
-        return self.itemsize + READ_BYTES_PER_CELL
+        """Peak bytes per cell of reading it with :func:`read_gdal` (strips of the stored
+        cells cost no more per cell)."""
+        return READ_BYTES_PER_CELL
 
 
 def read_gdal_header(path: Path, band: int | None = None) -> GdalHeader:
@@ -168,27 +169,55 @@ def read_gdal(path: Path, band: int | None = None,
             rows, cols = window
             rio_window = Window.from_slices(rows, cols)
             transform = src.window_transform(rio_window)
+        rows, cols = (header.shape if rio_window is None else
+                      (int(rio_window.height), int(rio_window.width)))
         try:
-            data = src.read(band, window=rio_window).astype(np.float64)
-            valid = src.read_masks(band, window=rio_window) > 0
-        except RasterioIOError as exc:
-            raise _corrupt(path, exc) from None
+            data = np.empty((rows, cols), dtype=np.float64)
         except MemoryError:
-            rows, cols = (header.shape if rio_window is None else
-                          (int(rio_window.height), int(rio_window.width)))
             need = float(rows) * cols * header.read_bytes_per_cell / 2**30
             raise InputError(f"reading {path} ({rows:,} × {cols:,} cells) needs about {need:,.1f} GiB of "
                              "memory, more than could be allocated; crop it to the area needed first "
                              "(convert --crop reads only that window).") from None
+        top, left = (0, 0) if rio_window is None else (int(rio_window.row_off), int(rio_window.col_off))
+        try:
+            non_finite, usable = _read_strips(src, band, data, top, left)
+        except RasterioIOError as exc:
+            raise _corrupt(path, exc) from None
         tags = header.tags
         if src.units and src.units[band - 1]:
             tags["UNIT"] = src.units[band - 1]
-    non_finite = valid & ~np.isfinite(data)
-    if non_finite.any() and (valid & ~non_finite).any():  # with no valid cell left, the job says so
-        print(f"note: {int(non_finite.sum())} NaN/inf cells in {path} are treated as nodata.",
-              file=sys.stderr)
-    data[~valid | non_finite] = np.nan
+    if non_finite and usable:  # with no valid cell left, the job says so
+        print(f"note: {non_finite} NaN/inf cells in {path} are treated as nodata.", file=sys.stderr)
     return Terrain(data, size.dx, size.dy, header.crs_wkt, transform, header.nodata, tags)
+
+
+def strips(rows: int, cols: int) -> Iterator[tuple[int, int]]:
+    """(first, end) rows of the strips of about :data:`STRIP_CELLS` cells that cover ``rows``
+    rows of ``cols`` columns."""
+    step = max(1, STRIP_CELLS // max(cols, 1))
+    for first in range(0, rows, step):
+        yield first, min(rows, first + step)
+
+
+def _read_strips(src: rasterio.io.DatasetReader, band: int, data: np.ndarray, top: int,
+                 left: int) -> tuple[int, bool]:
+    """Read the band into ``data`` (float64[rows, cols], the cells from row ``top``, column
+    ``left``) strip by strip, GDAL casting the stored type; nodata and NaN/inf cells → NaN.
+    Returns (the number of valid cells that held NaN/inf, whether any cell is usable)."""
+    rows, cols = data.shape
+    non_finite = 0
+    usable = False
+    for first, end in strips(rows, cols):
+        window = Window(left, top + first, cols, end - first)
+        strip = data[first:end]
+        src.read(band, window=window, out=strip)
+        valid = src.read_masks(band, window=window) > 0
+        finite = np.isfinite(strip)
+        non_finite += int(np.count_nonzero(valid & ~finite))
+        valid &= finite
+        usable = usable or bool(valid.any())
+        strip[~valid] = np.nan
+    return non_finite, usable
 
 
 @contextlib.contextmanager
@@ -234,13 +263,11 @@ def _header(src: rasterio.io.DatasetReader, path: Path, band: int) -> GdalHeader
                       tags, src.count)
 
 
-def write_bytes_per_cell(options: WriteOptions) -> int:
-    """Peak bytes per cell of writing a heightfield with ``options`` (GDAL or EXR): the nodata
-    masks (2), the valid elevations copied and cast to float32 to choose the nodata value
-    (8 + 4 + 2), the cells cast to the output type (8 + itemsize), and for the formats written
-    by copy the in-memory GeoTIFF (itemsize)."""
-    itemsize = np.dtype(options.dtype).itemsize
-    return 16 + 2 * itemsize
+def write_bytes_per_cell(path: Path) -> int:
+    """Peak bytes per cell of writing a heightfield to ``path`` beyond the heightfield itself:
+    GDAL rasters are written in strips (0); EXR files whole, cast to float32 (4) with their
+    nodata mask (1)."""
+    return 5 if path.suffix.lower() == ".exr" else 0
 
 
 def write_gdal(terrain: Terrain, path: Path, options: WriteOptions) -> None:
@@ -344,7 +371,6 @@ def _write(terrain: Terrain, path: Path, options: WriteOptions) -> None:
     fmt = output_format(path, options.cog)
     _check_projection(fmt, terrain.crs_wkt)
     nodata = output_nodata(terrain)
-    data = np.where(terrain.nodata_mask, nodata, terrain.elevation).astype(options.dtype)
     layout = {
         "height": terrain.shape[0],
         "width": terrain.shape[1],
@@ -360,11 +386,17 @@ def _write(terrain: Terrain, path: Path, options: WriteOptions) -> None:
     creation.update(options.creation_options)
     if not fmt.by_copy:
         with rasterio.open(path, "w", driver=fmt.driver, **layout, **creation) as dst:
-            _fill(dst, data, terrain.tags)
+            _fill(dst, terrain, nodata, options.dtype)
         return
-    with MemoryFile() as memory, memory.open(driver="GTiff", **layout) as staged:
-        _fill(staged, data, terrain.tags)
-        rasterio.shutil.copy(staged, path, driver=fmt.driver, **creation)
+    # formats GDAL writes only by copy: from a tiled GeoTIFF staged on disk beside the output
+    staged = path.with_name(f".{path.name}.staged.tif")
+    try:
+        with rasterio.open(staged, "w", driver="GTiff", TILED="YES", BIGTIFF="IF_SAFER", **layout) as dst:
+            _fill(dst, terrain, nodata, options.dtype)
+        with rasterio.open(staged) as source:
+            rasterio.shutil.copy(source, path, driver=fmt.driver, **creation)
+    finally:
+        staged.unlink(missing_ok=True)
 
 
 def _check_projection(fmt: Format, crs_wkt: str) -> None:
@@ -377,12 +409,18 @@ def _check_projection(fmt: Format, crs_wkt: str) -> None:
                          "write a .tif instead")
 
 
-def _fill(dst: rasterio.io.DatasetWriter, data: np.ndarray, tags: dict[str, str]) -> None:
-    """Write the band, the kept tags and the unit into an open dataset."""
-    dst.write(data, 1)
-    dst.update_tags(**{k: v for k, v in tags.items() if kept(k)})
-    if "UNIT" in tags:
-        dst.units = (tags["UNIT"],)
+def _fill(dst: rasterio.io.DatasetWriter, terrain: Terrain, nodata: float | None, dtype: str) -> None:
+    """Write the band strip by strip (NaN cells as ``nodata``, cast to ``dtype``), the kept
+    tags and the unit into an open dataset."""
+    rows, cols = terrain.shape
+    for first, end in strips(rows, cols):
+        strip = terrain.elevation[first:end]
+        if nodata is not None:
+            strip = np.where(np.isfinite(strip), strip, nodata)
+        dst.write(strip.astype(dtype), 1, window=Window(0, first, cols, end - first))
+    dst.update_tags(**{k: v for k, v in terrain.tags.items() if kept(k)})
+    if "UNIT" in terrain.tags:
+        dst.units = (terrain.tags["UNIT"],)
 
 
 def output_nodata(terrain: Terrain) -> float | None:
@@ -392,13 +430,18 @@ def output_nodata(terrain: Terrain) -> float | None:
     valid cell is ever read back as nodata.
     """
     candidate = terrain.nodata
+    rows, cols = terrain.shape
+    elevation = terrain.elevation
     if candidate is None:
-        if not terrain.nodata_mask.any():
+        if all(np.isfinite(elevation[first:end]).all() for first, end in strips(rows, cols)):
             return None
         candidate = -9999.0
     candidate = float(candidate)
-    valid = terrain.elevation[~terrain.nodata_mask].astype(np.float32)
-    return float("nan") if np.any(valid == np.float32(candidate)) else candidate
+    written = np.float32(candidate)
+    # NaN cells never equal it: only valid cells can clash
+    clash = any(np.any(elevation[first:end].astype(np.float32) == written)
+                for first, end in strips(rows, cols))
+    return float("nan") if clash else candidate
 
 
 def _corrupt(path: Path, exc: Exception) -> InputError:

@@ -55,6 +55,15 @@ class Terrain:
         if self.nodata_mask.all():
             raise InputError(f"{source} has no valid cell (every cell is nodata or NaN).")
 
+    def holding(self, values: np.ndarray) -> Terrain:
+        """A Terrain on the same georeferencing whose elevation is ``values`` itself, not a
+        copy (float64[ny, nx] of this shape, NaN on nodata as the caller sets it): for a
+        one-shot job that writes a field it made and will not change."""
+        if values.shape != self.shape or values.dtype != np.float64:
+            raise ValueError(f"values of shape {values.shape} ({values.dtype}) cannot stand for a "
+                             f"float64 heightfield of shape {self.shape}")
+        return replace(self, elevation=values, tags=dict(self.tags))
+
     def with_elevation(self, elevation: np.ndarray) -> Terrain:
         """A copy with new elevations (same georeferencing); nodata cells stay nodata."""
         new = np.array(elevation, dtype=np.float64, copy=True)

@@ -77,12 +77,14 @@ def check_previewable(terrain: Terrain, source: Path | str) -> None:
     if ny < 2 or nx < 2:
         raise InputError(f"{source} has {ny} × {nx} cells; a preview needs at least 2 × 2.")
     terrain.check_valid(source)
-    valid = terrain.elevation[np.isfinite(terrain.elevation)]
-    relief = float(valid.max()) - float(valid.min())
+    finite = np.isfinite(terrain.elevation)
+    low = float(np.min(terrain.elevation, where=finite, initial=np.inf))
+    high = float(np.max(terrain.elevation, where=finite, initial=-np.inf))
+    relief = high - low
     # The hillshade squares slopes (relief ÷ cell size): beyond ~1e150 they overflow.
     if not np.isfinite(relief) or relief / min(abs(terrain.dx), abs(terrain.dy)) > 1e150:
-        raise InputError(f"{source} spans elevations from {float(valid.min()):.3g} to "
-                         f"{float(valid.max()):.3g} m, too wide a range to shade; check its values "
+        raise InputError(f"{source} spans elevations from {low:.3g} to "
+                         f"{high:.3g} m, too wide a range to shade; check its values "
                          "(a scale factor or nodata value mistaken for elevations?).")
 
 

@@ -31,7 +31,7 @@ class Surface:
     terrain: Terrain
     boundaries: Boundaries
     method: str = "mfd"
-    _cached: tuple[np.ndarray, Any] | None = field(default=None, repr=False)
+    _cached: tuple[tuple[tuple[int, ...], int], Any] | None = field(default=None, repr=False)
     _fixed_outlets: np.ndarray | None = field(default=None, repr=False)
 
     def outlets(self, h: np.ndarray) -> np.ndarray:
@@ -45,19 +45,24 @@ class Surface:
             self._fixed_outlets = mask
         return self._fixed_outlets
 
+    def holds(self, h: np.ndarray) -> bool:
+        """Whether the kept routing is that of ``h`` (same values bit for bit)."""
+        from unerode_cli.hydro.routing import fingerprint
+
+        return self._cached is not None and self._cached[0] == fingerprint(h)
+
     def routing(self, h: np.ndarray) -> Any:
         """The routing of ``h`` towards its outlets (``unerode_cli.hydro.Routing``), kept for
-        as long as ``h`` holds the same values bit for bit (NaN on nodata included)."""
-        from unerode_cli.hydro.routing import route, same_values
+        as long as ``h`` holds the same values bit for bit (NaN on nodata included), as told by
+        a fingerprint of its values (``hydro.routing.fingerprint``: no copy of ``h`` is kept)."""
+        from unerode_cli.hydro.routing import fingerprint, route
 
+        key = fingerprint(h)
         cached = self._cached
-        if cached is not None and same_values(cached[0], h):
+        if cached is not None and cached[0] == key:
             return cached[1]
+        self._cached = None   # the old routing's arrays go before the new ones are made
         routing = route(h, self.terrain.grid, self.outlets(h), self.method)
-        # the kept copy of h: the previous one's buffer (a fresh array costs page faults)
-        key = cached[0] if cached is not None and cached[0].shape == h.shape else None
-        key = np.empty(h.shape, dtype=np.float64) if key is None else key
-        np.copyto(key, h)
         self._cached = (key, routing)
         return routing
 
@@ -99,6 +104,7 @@ class FluvialProcess:
     chosen: str | None = None
     _last: tuple[Any, float, fluvial.FluvialChange] | None = field(default=None, repr=False)
     _deposition: np.ndarray | None = field(default=None, repr=False)
+    _checked: bool = field(default=False, repr=False)
 
     def _implicit(self, dt: float) -> bool:
         return dt > 0.0 and (self.forward if self.forward != "auto" else self.chosen) == "implicit"
@@ -116,18 +122,23 @@ class FluvialProcess:
 
     def _step(self, elevation: np.ndarray, dt: float) -> tuple[Any, fluvial.FluvialChange]:
         # The surface hands out the same routing object as long as the elevation is unchanged,
-        # so it keys the kept step too.
+        # so it keys the kept step too; a kept step of another elevation goes first, with its
+        # routing, before the new ones are made.
+        if self._last is not None and not self.surface.holds(elevation):
+            self._last = None
         routing = self.surface.routing(elevation)
         last = self._last
         if last is not None and last[0] is routing and last[1] == dt:
             return routing, last[2]
+        self._last = None   # its arrays go before the new step's are made
         # the parameters (frozen) are checked on the first step; later steps skip that scan
         grid = self.surface.terrain.grid
         if self._implicit(dt):
-            change = self._implicit_step(elevation, dt, routing, last is not None)
+            change = self._implicit_step(elevation, dt, routing, self._checked)
         else:
             change = fluvial.step(elevation, grid, routing.outlets, self.params, dt, routing=routing,
-                                  scheme=self.scheme, inflow=self.inflow, validated=last is not None)
+                                  scheme=self.scheme, inflow=self.inflow, validated=self._checked)
+        self._checked = True
         self._last = (routing, dt, change)
         return routing, change
 

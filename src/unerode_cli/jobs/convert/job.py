@@ -55,7 +55,7 @@ class ConvertJob(Job):
             terrain = crop(terrain, self.crop)
         if self.cell_size is not None:
             rows, cols = resampled_shape(terrain.transform, terrain.shape, self.cell_size)
-            per_cell = RESAMPLE_BYTES_PER_CELL + write_bytes_per_cell(written.options)
+            per_cell = RESAMPLE_BYTES_PER_CELL + write_bytes_per_cell(written.path)
             check_fits(float(rows) * cols * per_cell,
                        f"resampling {self.source} to --cell-size {self.cell_size:g} ({rows:,} × {cols:,} "
                        "cells)",

@@ -1,5 +1,5 @@
 """The `flow` job: discharge (m³/y), drainage area (m²) or D8 receivers of a DEM, routed across
-depressions on a routing copy (the DEM is not changed), written with a sidecar and preview."""
+depressions on the job's own copy of the DEM (the file is not changed), written with a sidecar and preview."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 from unerode_cli.errors import InputError
 from unerode_cli.hydro import accumulate, route
 from unerode_cli.hydro.directions import esri_d8_codes
+from unerode_cli.hydro.routing import release_scratch
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import is_exr, read_terrain
 from unerode_cli.io.terrain import Terrain
@@ -79,22 +80,30 @@ class FlowJob(Job):
         return PlannedFlow(terrain, bounds, rain, written)
 
     def run(self, planned: PlannedFlow, progress: Progress) -> tuple[PlannedFlow, FlowField]:
-        """Route (across depressions) and accumulate, or encode the receivers as D8 codes."""
+        """Route (across depressions) and accumulate, or encode the receivers as D8 codes.
+
+        The DEM read is this job's own: the routing surface is filled into it (it keeps its
+        nodata cells, +inf), and the routing's work arrays are dropped before accumulating."""
         terrain = planned.terrain
-        routing = route(terrain.elevation, terrain.grid, planned.bounds.outlets(terrain.elevation, terrain),
-                        self.method)
+        grid = terrain.grid
+        outlets = planned.bounds.outlets(terrain.elevation, terrain)
+        routing = route(terrain.elevation, grid, outlets, self.method, filled=terrain.elevation)
+        del outlets
+        release_scratch()
         if self.what == "receivers":
             values = esri_d8_codes(routing.receivers(), terrain.shape).astype(float)
         else:
             values = accumulate(routing, planned.rain if self.what == "discharge" else 1.0)
-        values = np.where(terrain.nodata_mask, np.nan, values)
+        nodata = ~grid.valid
+        values[nodata] = np.nan
+        terrain.elevation[nodata] = np.nan   # the routing surface's +inf, for the preview
         return planned, FlowField(values, int(routing.outlets.sum()))
 
     def write(self, result: tuple[PlannedFlow, FlowField], outputs: OutputPlan) -> str:
         """Write the field with its unit and nodata value, its sidecar and its preview."""
         planned, field = result
         unit, nodata = FIELDS[self.what]
-        layer = planned.terrain.with_elevation(field.values)
+        layer = planned.terrain.holding(field.values)
         layer.nodata, layer.tags["UNIT"] = nodata, unit
         stats = {"outlet_cells": field.outlet_cells, "max": float(np.nanmax(field.values)), "unit": unit}
         save(layer, planned.outputs, self.COMMAND, self.provenance(), stats, elevation_preview=False)
@@ -108,10 +117,12 @@ def _check_discharge_fits(rain: float | np.ndarray, terrain: Terrain, given: str
     """Refuse a precipitation (m/y) whose discharge could exceed what the float32 output holds:
     no discharge is above the precipitation summed over the DEM's domain times a cell's area
     (m³/y)."""
-    valid = ~terrain.nodata_mask
+    valid = terrain.grid.valid
     with np.errstate(over="ignore", invalid="ignore"):
-        per_cell = np.broadcast_to(np.asarray(rain, dtype=np.float64), valid.shape)[valid]
-        total = float(np.sum(per_cell, dtype=np.float64)) * terrain.grid.cell_area
+        if np.ndim(rain) == 0:
+            total = float(rain) * float(np.count_nonzero(valid)) * terrain.grid.cell_area
+        else:
+            total = float(np.sum(rain, where=valid, dtype=np.float64)) * terrain.grid.cell_area
     if not total <= float(np.finfo(np.float32).max):
         raise InputError(f"--precipitation {given} m/y over the DEM could give discharges above "
                          f"{np.finfo(np.float32).max:.3g} m³/y, more than a float32 raster holds; give a "

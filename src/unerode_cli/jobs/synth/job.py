@@ -65,7 +65,7 @@ class SynthJob(Job):
         wkt = crs.to_wkt()
         cell = cell_size_metres(wkt, transform, shape, str(self.output))
         making = SYNTH_BYTES_PER_CELL.get(self.kind, max(SYNTH_BYTES_PER_CELL.values()))
-        per_cell = (making + KEPT_BYTES_PER_CELL + write_bytes_per_cell(written.options)
+        per_cell = (making + KEPT_BYTES_PER_CELL + write_bytes_per_cell(written.path)
                     + (PREVIEW_BYTES_PER_CELL if self.preview else 0))
         check_fits(float(self.size) ** 2 * per_cell, f"a {self.size:,} × {self.size:,} {self.kind} DEM",
                    "give a smaller --size")
