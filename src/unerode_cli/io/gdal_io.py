@@ -31,6 +31,12 @@ from unerode_cli.io.cellsize import cell_size_metres
 from unerode_cli.io.paths import atomic_path, place, staging_folder
 from unerode_cli.io.terrain import Terrain
 
+#: GDAL's block cache (MB) unless the user sets GDAL_CACHEMAX: rasters are read and written in
+#: strips of whole rows, each stored block once, so a larger cache (GDAL's default: 5 % of the
+#: memory) only holds decompressed blocks that are never read again.
+GDAL_CACHE_MB = 64
+os.environ.setdefault("GDAL_CACHEMAX", str(GDAL_CACHE_MB))
+
 #: Metadata carried from input to output: these keys, and every key starting with "UNERODE_".
 KEPT_TAGS = ("AREA_OR_POINT",)
 KEPT_PREFIX = "UNERODE_"
