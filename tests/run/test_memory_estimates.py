@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import rasterio
 from affine import Affine
-from tests.conftest import write_geotiff
+from tests.conftest import SHARED_DATA, write_geotiff
 from tests.refusals import assert_refused, cli
 
 from unerode_cli.errors import InputError
@@ -173,3 +173,28 @@ def test_ordinary_sizes_still_run(folder: Path) -> None:
     assert code == 0, stderr
     code, stderr = cli(folder, "hypsometry", "in.tif", "--bins", "20", "--csv", "h.csv")
     assert code == 0, stderr
+
+
+# --- the commands that hold grids while they step: their own estimate before any cell --------
+
+@pytest.mark.parametrize("command", [
+    ("flow", "big.tif", "out.tif"),
+    ("erode", "big.tif", "out.tif", "--steps", "1"),
+    ("unerode", "big.tif", "out.tif", "--steps", "1"),
+    ("climate-run", "big.tif", "out.tif", "--chronology", SHARED_DATA / "lr04" / "LR04stack.txt",
+     "--from", "0", "--to", "10", "--dt", "1000"),
+], ids=["flow", "erode", "unerode", "climate-run"])
+def test_a_run_that_would_not_fit_is_refused_with_its_estimate(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: tuple[str, ...]) -> None:
+    """A 20,000² raster is read in 3.0 GiB: under a 10 GiB cap the read fits, the command's
+    run (BASE_BYTES + cells × its bytes per cell) does not, and says so before reading."""
+    huge_tif(tmp_path / "big.tif", 20_000)
+    monkeypatch.setenv(memory.MEMORY_ENV, "10")
+    said = assert_refused(tmp_path, *command, phrase="memory")
+    name = command[0]
+    expected = (memory.BASE_BYTES + 20_000**2 * memory.COMMAND_BYTES_PER_CELL[name]) / memory.GIB
+    assert f"{name} on" in said and "20,000 × 20,000 cells" in said
+    needed = float(re.search(r"needs about ([\d,.]+) GiB", said).group(1).replace(",", ""))
+    assert needed == pytest.approx(expected, abs=0.06)
+    available = float(re.search(r"the ([\d,.]+) GiB available", said).group(1).replace(",", ""))
+    assert 0.0 < available <= 10.0

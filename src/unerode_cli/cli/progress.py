@@ -12,10 +12,12 @@ from unerode_cli.cli.common import DEBUG, DETAIL, NOTE, say
 
 
 @contextlib.contextmanager
-def progress_bar(total: int, description: str, verbosity: int) -> Iterator[Callable[[str], None]]:
-    """Yield ``advance(info)``, to be called once per completed unit of work."""
+def progress_bar(total: int, description: str, verbosity: int,
+                 cells: int = 0) -> Iterator[Callable[[str], None]]:
+    """Yield ``advance(info)``, to be called once per completed unit of work; with ``cells``
+    (cells updated per unit) the bar and the ``-v`` lines show the rate in cells per second."""
     if verbosity >= DETAIL:
-        yield _step_lines(total, description, verbosity)
+        yield _step_lines(total, description, verbosity, cells)
         return
     if verbosity < NOTE or not sys.stderr.isatty():
         yield lambda info="": None
@@ -31,25 +33,45 @@ def progress_bar(total: int, description: str, verbosity: int) -> Iterator[Calla
     )
 
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-               TextColumn("{task.fields[info]}"), TimeElapsedColumn(), TimeRemainingColumn())
+               TextColumn("{task.fields[info]}"), TextColumn("{task.fields[rate]}"), TimeElapsedColumn(),
+               TimeRemainingColumn())
+    pace = _CellRate(cells)
     with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
-        task = bar.add_task(description, total=total, info="")
-        yield lambda info="": bar.update(task, advance=1, info=info)
+        task = bar.add_task(description, total=total, info="", rate="")
+        yield lambda info="": bar.update(task, advance=1, info=info, rate=pace.advance())
 
 
-def _step_lines(total: int, description: str, verbosity: int) -> Callable[[str], None]:
-    """``advance(info)`` that says ``DESCRIPTION k/N: INFO`` (with ``-vv``: and the step's wall
-    time in seconds)."""
+def _step_lines(total: int, description: str, verbosity: int, cells: int = 0) -> Callable[[str], None]:
+    """``advance(info)`` that says ``DESCRIPTION k/N: INFO`` (with ``cells``: the rate in cells
+    per second; with ``-vv``: and the step's wall time in seconds)."""
     done, last = 0, time.perf_counter()
+    pace = _CellRate(cells)
 
     def advance(info: str = "") -> None:
         nonlocal done, last
         done, now = done + 1, time.perf_counter()
         timing = f" ({now - last:.3f} s)" if verbosity >= DEBUG else ""
-        say(f"{description} {done}/{total}{': ' + info if info else ''}{timing}", verbosity, DETAIL)
+        rate = pace.advance()
+        rate = f" [{rate}]" if rate else ""
+        say(f"{description} {done}/{total}{': ' + info if info else ''}{rate}{timing}", verbosity, DETAIL)
         last = now
 
     return advance
+
+
+class _CellRate:
+    """Cells updated per second since the start, as text ("12.3 Mcells/s"; "" without cells)."""
+
+    def __init__(self, cells: int) -> None:
+        self.cells, self.units, self.start = cells, 0, time.perf_counter()
+
+    def advance(self) -> str:
+        self.units += 1
+        elapsed = time.perf_counter() - self.start
+        if not self.cells or elapsed <= 0.0:
+            return ""
+        rate = self.cells * self.units / elapsed
+        return f"{rate / 1e6:.3g} Mcells/s" if rate >= 1e5 else f"{rate:,.0f} cells/s"
 
 
 @contextlib.contextmanager

@@ -60,8 +60,9 @@ class Progress:
         self._cancel = cancel
         self.verbosity = verbosity
 
-    def start(self, total: float, label: str, unit: str = "steps") -> None:
-        """A loop of ``total`` units begins (``unit``: ``steps``, or ``years`` of simulated time)."""
+    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0) -> None:
+        """A loop of ``total`` units begins (``unit``: ``steps``, or ``years`` of simulated time);
+        each step updates ``cells`` cells (0: not said)."""
 
     def advance(self, info: str = "", done: float | None = None) -> None:
         """One more unit is done (or, with ``done``, that many units in all); ``info`` says
@@ -93,7 +94,7 @@ class StreamProgress(Progress):
         super().__init__(cancel, verbosity)
         self._label, self._total, self._done = "", 0.0, 0
 
-    def start(self, total: float, label: str, unit: str = "steps") -> None:
+    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0) -> None:
         self._label, self._total, self._done = label, total, 0
 
     def advance(self, info: str = "", done: float | None = None) -> None:

@@ -72,3 +72,27 @@ def check_read(header: rasters.RasterHeader, extra_per_cell: float = 0.0, extra:
 
 # every raster read (io.rasters.read_terrain) is checked against the memory available
 rasters.set_memory_check(check_fits)
+
+
+#: Resident bytes of the interpreter with its libraries and compiled kernels, before any grid.
+BASE_BYTES = 0.3 * GIB
+#: Peak resident bytes per cell of a command's run beyond :data:`BASE_BYTES`, measured at
+#: 8192² by ``bench/memory.py`` (docs/memory.md) and rounded up: the grids it holds at once
+#: (elevations, routing, fluxes, work arrays) in its dearest configuration.
+COMMAND_BYTES_PER_CELL = {
+    "flow": 32,
+    "erode": 200,
+    "unerode": 200,
+    "climate-run": 200,
+}
+
+
+def check_command(command: str, header: rasters.RasterHeader, change: str = "") -> float:
+    """Refuse (InputError, before any cell is read) a run of ``command`` on ``header``'s
+    raster whose estimated peak, :data:`BASE_BYTES` + cells × :data:`COMMAND_BYTES_PER_CELL`,
+    does not fit in the memory available; returns the estimate (bytes)."""
+    nbytes = BASE_BYTES + float(header.cells) * COMMAND_BYTES_PER_CELL[command]
+    check_fits(nbytes, f"{command} on {header.path} ({header.size_text()})",
+               change or "crop it to the area needed first (convert --crop reads only that window) or "
+               "coarsen it (convert --cell-size), or use a machine with more memory")
+    return nbytes

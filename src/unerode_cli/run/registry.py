@@ -45,6 +45,10 @@ class Surface:
             self._fixed_outlets = mask
         return self._fixed_outlets
 
+    def release(self) -> None:
+        """Drop the kept routing."""
+        self._cached = None
+
     def holds(self, h: np.ndarray) -> bool:
         """Whether the kept routing is that of ``h`` (same values bit for bit)."""
         from unerode_cli.hydro.routing import fingerprint
@@ -163,6 +167,11 @@ class FluvialProcess:
         middle = elevation + first.dh
         second = self._implicit_step(middle, half, self.surface.routing(middle), True, depth + 1)
         return _joined(first, second, half)
+
+    def release(self) -> None:
+        """Drop the kept step and routing (the run is over); the counts stay."""
+        self._last = None
+        self.surface.release()
 
     def state(self) -> dict[str, Any]:
         """What a resumed run needs to go on bit for bit: the scheme ``"auto"`` chose, the

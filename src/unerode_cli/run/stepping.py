@@ -98,10 +98,11 @@ def check_step_count(count: float, how: str,
 
 def step_through(stepper: Stepper, steps: int | None, progress: Progress, label: str,
                  checkpoints: Checkpoints = NO_CHECKPOINTS, max_steps: int | None = None,
-                 years: float | None = None) -> Stepped:
+                 years: float | None = None, cells: int = 0) -> Stepped:
     """Run ``steps`` steps of ``stepper`` (see the module docstring), or with ``steps`` None
     until a step reports ``last``. ``years``: the simulated years of the whole run when progress
-    counts years (steps report ``done``), else None."""
+    counts years (steps report ``done``), else None. ``cells``: the cells a step updates, for
+    the progress's rate in cells per second (0: none shown)."""
     if steps is not None:
         check_step_count(steps, f"this {label} run", "give a larger --dt or fewer steps")
     first = _resumed(stepper, steps, progress, checkpoints)
@@ -110,7 +111,7 @@ def step_through(stepper: Stepper, steps: int | None, progress: Progress, label:
     if years is None:
         if steps is None:
             raise ValueError("a run whose number of steps is not known counts its progress in years")
-        progress.start(steps - first, label)
+        progress.start(steps - first, label, cells=cells)
     else:
         progress.start(years, label, unit="years")
     k = first

@@ -25,7 +25,7 @@ from unerode_cli.io.chronology_files import read_age_table
 from unerode_cli.io.coarse_runs import check_fluxes_folder, coarse_run_folder, fluxes_folder, read_coarse_run
 from unerode_cli.io.grid_rasters import load_on_grid
 from unerode_cli.io.paths import OutputPlan, check_output
-from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.io.yaml_files import read_yaml_mapping
 from unerode_cli.jobs.climate_run.forcing import (
@@ -43,6 +43,7 @@ from unerode_cli.run.boundaries import COARSE, BaseLevels, base_levels_from_opti
 from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.glacial.options import MODEL_PARAMETERS
 from unerode_cli.run.job import Progress
+from unerode_cli.run.memory import check_command
 from unerode_cli.run.nesting import Nesting, nest
 from unerode_cli.run.outputs import Outputs, check_png, check_raster
 from unerode_cli.run.parameter_maps import resolve
@@ -97,6 +98,7 @@ def plan(job: ClimateJob, plan_outputs: OutputPlan | None = None, progress: Prog
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, job.replaces, job.preview)
     outputs.check(job.source)
     _check_outputs(job, names, steps, outputs)
+    check_command("climate-run", read_header(job.source))
     terrain = read_terrain(job.source)
     terrain.check_valid(job.source)
     check_metres(terrain, job.source, job.force)

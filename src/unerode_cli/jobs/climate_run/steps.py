@@ -100,7 +100,8 @@ def run_steps(prepared: PreparedClimateRun, progress: Progress) -> ClimateResult
     stepper = _ClimateStepper(prepared, progress)
     checkpoints = Checkpoints(checkpoint_path(job.output), job.checkpoint_every, job.resume,
                               prepared.fingerprint)
-    stepped = step_through(stepper, prepared.steps, progress, job.COMMAND, checkpoints, job.max_steps)
+    stepped = step_through(stepper, prepared.steps, progress, job.COMMAND, checkpoints, job.max_steps,
+                           cells=stepper.h.size)
     return ClimateResult(stepper.h, stepped.done, stepper.rows, time.perf_counter() - start_time)
 
 

@@ -11,9 +11,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from unerode_cli.errors import InputError
+from unerode_cli.hydro.routing import release_scratch
 from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path
 from unerode_cli.io.paths import OutputPlan
-from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.erode.options import BACKWARD_SCHEMES, FORWARD_SCHEMES, OPTIONS
 from unerode_cli.processes.parameters import UPLIFT
@@ -22,6 +23,7 @@ from unerode_cli.run.declare import declared
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
 from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.job import Job, Progress
+from unerode_cli.run.memory import check_command
 from unerode_cli.run.outputs import (
     TIME_TAG,
     Outputs,
@@ -238,6 +240,7 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
         check_raster(path, outputs.options, replace, (job.source,))
     if job.change_map and job.preview:
         check_png(change_preview_path(job.change_map), replace, (job.source,))
+    check_command(job.command, read_header(job.source, band=job.band))
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
     terrain.check_valid(job.source)
     check_metres(terrain, job.source, job.force)
@@ -272,7 +275,7 @@ def run_steps(prepared: PreparedJob, progress: Progress) -> ErosionResult:
     start = time.perf_counter()
     steps = ErosionSteps(prepared, progress)
     stepped = step_through(steps, prepared.steps, progress, prepared.job.command, prepared.checkpoints,
-                           prepared.job.max_steps)
+                           prepared.job.max_steps, cells=prepared.terrain.elevation.size)
     return ErosionResult(steps.elevation, steps.applier.report, steps.snapshots,
                          time.perf_counter() - start, stepped)
 
@@ -284,7 +287,8 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
     if not result.stepped.finished:
         return (f"{job.command}: stopped after step {result.stepped.done} of {prepared.steps} "
                 f"(t = {report.elapsed_years:+g} y); run again with --resume to continue.")
-    output = terrain.with_elevation(result.elevation)
+    # the elevation is the run's own (NaN on nodata): written as it is, not copied
+    output = terrain.holding(result.elevation)
     output.tags[TIME_TAG] = repr(report.elapsed_years)
     change = process_change(terrain, result.elevation, prepared, report)
     stats = _statistics(report, change, result.wall_s, result.snapshots)
@@ -294,9 +298,12 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
         if getattr(process, "passes", 0):
             # passes of the implicit fluvial steps' deposition iteration (each converged)
             stats["fluvial_implicit_passes"] = process.passes
+        if hasattr(process, "release"):
+            process.release()       # the run's routing and work arrays go before the writing
+    release_scratch()
     save(output, prepared.outputs, job.command, _provenance(prepared), stats)
     if job.change_map is not None:
-        layer = terrain.with_elevation(change)
+        layer = terrain.holding(change)   # NaN on nodata, as both elevations are
         save(layer, Outputs(job.change_map, prepared.outputs.options, job.overwrite),
              job.command + " change", _provenance(prepared), stats, elevation_preview=False)
         if job.preview is not None:
@@ -313,8 +320,11 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
 def process_change(
     terrain: Terrain, h: np.ndarray, prepared: PreparedJob, report: RunReport
 ) -> np.ndarray:
-    """Δh (m) due to the processes alone: final − initial − U·t (uplift excluded)."""
-    return h - terrain.elevation - prepared.uplift * report.elapsed_years
+    """Δh (m) due to the processes alone: final − initial − U·t (uplift excluded); one new
+    grid, no temporaries."""
+    change = np.subtract(h, terrain.elevation)
+    change -= prepared.uplift * report.elapsed_years
+    return change
 
 
 def _provenance(prepared: PreparedJob) -> dict[str, Any]:
@@ -329,6 +339,8 @@ def _provenance(prepared: PreparedJob) -> dict[str, Any]:
 def _statistics(report: RunReport, change: np.ndarray, wall: float,
                 snapshots: list[Path]) -> dict[str, Any]:
     valid = np.isfinite(change)
+    absolute = np.abs(change)
+    count = max(int(np.count_nonzero(valid)), 1)
     return {
         "steps": report.steps,
         "substeps": report.substeps,
@@ -336,8 +348,8 @@ def _statistics(report: RunReport, change: np.ndarray, wall: float,
         "mass_budget_m3": {name: {"eroded": b.eroded, "deposited": b.deposited,
                                   "outflux": b.outflux, "inflow": b.inflow, "residual": b.residual}
                            for name, b in report.budgets.items()},
-        "mean_abs_change_m": float(np.abs(change[valid]).mean()),
-        "max_abs_change_m": float(np.abs(change[valid]).max()),
+        "mean_abs_change_m": float(np.sum(absolute, where=valid, dtype=np.float64)) / count,
+        "max_abs_change_m": float(np.max(absolute, where=valid, initial=0.0)),
         "wall_time_s": wall,
         "snapshots": [str(p) for p in snapshots],
     }

@@ -13,13 +13,14 @@ from unerode_cli.hydro import accumulate, route
 from unerode_cli.hydro.directions import esri_d8_codes
 from unerode_cli.hydro.routing import release_scratch
 from unerode_cli.io.paths import OutputPlan
-from unerode_cli.io.rasters import is_exr, read_terrain
+from unerode_cli.io.rasters import is_exr, read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.flow.options import OPTIONS
 from unerode_cli.processes.parameters import ParamSpec
 from unerode_cli.run.boundaries import Boundaries, boundaries_from_options
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
+from unerode_cli.run.memory import check_command
 from unerode_cli.run.outputs import Outputs, field_preview, save
 from unerode_cli.run.parameter_maps import resolve
 
@@ -70,6 +71,7 @@ class FlowJob(Job):
             if path is not None:
                 outputs.read(path)
         written.check(self.dem)
+        check_command("flow", read_header(self.dem, band=self.band))
         terrain = read_terrain(self.dem, band=self.band, channel=self.channel)
         terrain.check_valid(self.dem)
         written.check_source(terrain, self.dem)
