@@ -15,6 +15,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import shutil
 import subprocess
 import sys
@@ -29,16 +30,27 @@ HERE = Path(__file__).resolve().parent
 CLI = str(Path(sys.executable).with_name("unerode-cli"))
 
 
+#: The memory cap (GiB, ``UNERODE_MEMORY_GIB``) under which the implicit step takes its lean
+#: layout at 8192² (its ordered layout needs 8 GiB more there).
+LEAN_CAP_GIB = "6"
+
+
 def cases(size: int, big: int) -> dict[str, tuple[str, list[str]]]:
-    """name → (input, arguments after the input and the output)."""
+    """name → (input, the command's arguments: IN, OUT stand for the input and the output;
+    a leading ``UNERODE_MEMORY_GIB=...`` is set in the child's environment)."""
     return {
         f"flow mfd {size}²": (f"m{size}.tif", ["flow", "IN", "OUT"]),
         f"flow d8 {size}²": (f"m{size}.tif", ["flow", "IN", "OUT", "--method", "d8"]),
         f"erode default (mfd, auto) 1 step {size}²": (f"m{size}.tif", ["erode", "IN", "OUT", "--steps", "1"]),
+        f"erode default, lean layout (cap {LEAN_CAP_GIB} GiB) 1 step {size}²": (
+            f"m{size}.tif", [f"UNERODE_MEMORY_GIB={LEAN_CAP_GIB}", "erode", "IN", "OUT", "--steps", "1"]),
         f"erode implicit d8 1 step {size}²": (f"m{size}.tif", ["erode", "IN", "OUT", "--steps", "1",
                                                                "--scheme", "implicit", "--method", "d8"]),
+        f"erode explicit 1 step of 10 y {size}²": (f"m{size}.tif", ["erode", "IN", "OUT", "--steps", "1",
+                                                                     "--dt", "10", "--scheme", "explicit"]),
         f"unerode 1 step {size}²": (f"m{size}.tif", ["unerode", "IN", "OUT", "--steps", "1", "--dt", "10"]),
         f"read + flow + write {big}²": (f"m{big}.tif", ["flow", "IN", "OUT"]),
+        f"erode default 1 step {big}²": (f"m{big}.tif", ["erode", "IN", "OUT", "--steps", "1"]),
     }
 
 
@@ -66,8 +78,13 @@ def mirrored(source: Path, path: Path, times: int) -> None:
 
 def measure(args: list[str]) -> tuple[float, float, int]:
     """(wall s, peak RSS bytes, exit code) of one child process."""
+    env = dict(os.environ)
+    while args and re.fullmatch(r"[A-Z_]+=.*", args[0]):
+        key, value = args[0].split("=", 1)
+        env[key] = value
+        args = args[1:]
     start = time.perf_counter()
-    child = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    child = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
     return wall, usage.ru_maxrss * 1024.0, os.waitstatus_to_exitcode(status)
@@ -100,10 +117,12 @@ def main() -> None:
         shutil.rmtree(out, ignore_errors=True)
         out.mkdir()
         named = {"IN": str(path), "OUT": str(out / "out.tif")}
-        command = [CLI, *(named.get(a, a) for a in argv)]
+        settings = [a for a in argv if re.fullmatch(r"[A-Z_]+=.*", a)]
+        command = [*settings, CLI, *(named.get(a, a) for a in argv if a not in settings)]
         wall, peak, code = measure(command)
         cells = size * size
-        results[name] = {"command": " ".join(["unerode-cli", *command[1:]]), "cells": cells,
+        shown = [("unerode-cli" if a == CLI else a) for a in command]
+        results[name] = {"command": " ".join(shown), "cells": cells,
                          "wall_s": round(wall, 1), "peak_rss_gib": round(peak / 2**30, 3),
                          "bytes_per_cell": round(peak / cells, 1), "exit_code": code}
         print(f"{name:45s} {wall:8.1f} s {peak / 2**30:7.2f} GiB {peak / cells:6.1f} B/cell (exit {code})",

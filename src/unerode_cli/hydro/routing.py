@@ -41,9 +41,12 @@ def scratch(name: str, shape: tuple[int, ...], dtype: type) -> np.ndarray:
     return array
 
 
-def release_scratch() -> None:
-    """Drop this thread's work arrays (a one-shot job that has routed for the last time)."""
-    _SCRATCH.arrays.clear()
+def release_scratch(prefix: str = "") -> None:
+    """Drop this thread's work arrays whose names start with ``prefix`` (all by default: a
+    one-shot job that has routed for the last time; ``"flood."``: the priority flood's)."""
+    arrays = _SCRATCH.arrays
+    for name in [name for name in arrays if name.startswith(prefix)]:
+        del arrays[name]
 
 
 @dataclass(frozen=True)

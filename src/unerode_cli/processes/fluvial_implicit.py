@@ -47,6 +47,11 @@ RTOL = 1e-6
 ATOL = 1e-9
 #: Most passes of the deposition iteration in one step.
 MAX_PASSES = 500
+#: Layouts of the step's arrays (see :func:`step`).
+LAYOUTS = ("ordered", "lean")
+#: Bytes per cell the ordered layout holds beyond the lean one (in-order copies, receiver
+#: lists with MFD's fractions, the gradient): measured at 2048², rounded up.
+ORDERED_EXTRA_BYTES_PER_CELL = 120
 
 
 @dataclass(frozen=True)
@@ -84,6 +89,7 @@ def step(
     rtol: float = RTOL,
     max_passes: int = MAX_PASSES,
     deposition: np.ndarray | None = None,
+    layout: str = "ordered",
 ) -> ImplicitStep:
     """One implicit forward step of fluvial erosion and deposition (dt > 0).
 
@@ -94,7 +100,13 @@ def step(
         rtol: tolerance of the deposition iteration (share of the largest |Δh|).
         max_passes: most passes of the deposition iteration.
         deposition: float64[ny, nx] first guess of the deposition rates D (m/y), e.g. the
-            previous step's ``ImplicitStep.deposition``; 0 when None.
+            previous step's ``ImplicitStep.deposition``, which is updated in place (a
+            C-contiguous float64 array; anything else is copied); 0 when None.
+        layout: ``"ordered"``: the step's arrays copied in the routing's order with each cell's
+            receivers listed (``fluvial_implicit_kernels``: the faster, about 110 bytes a cell
+            more); ``"lean"``: on the cells where they lie, receivers worked out again in each
+            pass (``fluvial_implicit_lean_kernels``: 4 bytes a cell more). Both give the same
+            step to rounding.
 
     Returns:
         the change with Q, Q_s and the mass budget (eroded + inflow − deposited − outflux = 0
@@ -118,8 +130,10 @@ def step(
     shape = grid.shape
     h0 = np.ascontiguousarray(elevation, dtype=np.float64).ravel()
     sources = cell_sources(grid, params.precipitation)
+    if layout not in LAYOUTS:
+        raise ValueError(f"the layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
     if inflow is None:
-        sediment_in = np.zeros(h0.size, dtype=np.float64)
+        sediment_in = np.zeros(1, dtype=np.float64)
     else:
         sources = sources + flat_field(inflow.discharge, shape, "inflow discharge")
         sediment_in = flat_field(inflow.sediment, shape, "inflow sediment")
@@ -130,13 +144,14 @@ def step(
     q_max = float(discharge.max(initial=0.0))
     if not np.isfinite(float(k.max(initial=0.0)) * q_max ** float(params.m) * dt):
         raise FloatingPointError("K·Q^m·dt overflows: the erodibility is too large")
-    new = h0.copy()
-    rates = np.zeros(shape) if deposition is None else np.array(deposition, dtype=np.float64)
-    sediment_flux = np.zeros(shape, dtype=np.float64)
+    new = np.empty_like(h0)
+    rates = _first_rates(deposition, shape)
+    sediment_flux = np.empty(shape, dtype=np.float64)
     uplift = flat_field(params.uplift, shape, "uplift")
-    passes, residual, eroded, deposited, outflow = _sweep(
-        h0, grid, routing, params, dt, discharge.ravel(), k, uplift, sediment_in, inflow is not None,
-        rtol, max_passes, new, sediment_flux.ravel(), rates.ravel())
+    sweep = _sweep if layout == "ordered" else _lean_sweep
+    passes, residual, eroded, deposited, outflow = sweep(
+        h0, grid, routing, params, dt, discharge.ravel(), k, uplift, sediment_in, rtol, max_passes, new,
+        sediment_flux.ravel(), rates.ravel())
     dh = new.reshape(shape)
     dh -= h0.reshape(shape)
     dh[~grid.valid] = 0.0
@@ -148,9 +163,38 @@ def step(
     return ImplicitStep(change, int(passes), float(residual), rates)
 
 
+def _first_rates(deposition: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray:
+    """The deposition rates the iteration starts from and updates: ``deposition`` itself when
+    it is a C-contiguous float64 array of ``shape``, else a float64 copy; zeros without."""
+    if deposition is None:
+        return np.zeros(shape, dtype=np.float64)
+    if (deposition.shape == shape and deposition.dtype == np.float64 and deposition.flags.c_contiguous
+            and deposition.flags.writeable):
+        return deposition
+    return np.array(deposition, dtype=np.float64).reshape(shape)
+
+
+def _lean_sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, dt: float,
+                discharge: np.ndarray, k: np.ndarray, uplift: np.ndarray, sediment_in: np.ndarray,
+                rtol: float, max_passes: int, new: np.ndarray, sediment_flux: np.ndarray,
+                rates: np.ndarray) -> tuple[int, float, float, float, float]:
+    """The kernel of the step on cell-indexed arrays (the lean layout)."""
+    from unerode_cli.hydro.fields import flat_field
+    from unerode_cli.processes import fluvial_implicit_lean_kernels as lean
+
+    shape = grid.shape
+    done = lean.lean_sweep_into(
+        h0.reshape(shape), grid.valid, routing.filled, routing.outlets, routing.order, grid.dx, grid.dy,
+        routing.single, discharge, k, float(params.n), float(params.m), flat_field(params.k_d, shape, "k_d"),
+        uplift, float(dt), sediment_in, float(rtol), ATOL, int(max_passes), new, sediment_flux, rates,
+        np.empty(h0.size, dtype=np.float32))
+    passes, residual, _clipped, eroded, deposited, outflow = done
+    return int(passes), float(residual), float(eroded), float(deposited), float(outflow)
+
+
 def _sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, dt: float,
            discharge: np.ndarray, k: np.ndarray, uplift: np.ndarray, sediment_in: np.ndarray,
-           inflowing: bool, rtol: float, max_passes: int, new: np.ndarray, sediment_flux: np.ndarray,
+           rtol: float, max_passes: int, new: np.ndarray, sediment_flux: np.ndarray,
            rates: np.ndarray) -> tuple[int, float, float, float, float]:
     """The kernel of the step, on arrays in the routing's order. Fills
     ``new``, ``sediment_flux`` and ``rates`` (flat); returns (passes, residual, erosion,
@@ -164,7 +208,7 @@ def _sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, 
     done = fik.implicit_sweep_into(
         h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single, discharge,
         _gradient(h0.reshape(shape), grid, routing.single), k, float(params.n), float(params.m),
-        *fields, sediment_in if inflowing else np.zeros(1), float(rtol), ATOL, int(max_passes), new,
+        *fields, sediment_in, float(rtol), ATOL, int(max_passes), new,
         sediment_flux, rates, scratch("fluvial_implicit.work", (6, order.size), np.float64),
         scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
     passes, residual, _clipped, eroded, deposited, outflow = done

@@ -79,17 +79,21 @@ def slope_into(h, valid, dx, dy, mode, s):
     ny, nx = h.shape
     for r in numba.prange(ny):
         for c in range(nx):
-            if not valid[r, c]:
-                s[r * nx + c] = 0.0
-                continue
-            h0 = h[r, c]
-            he = h[r, c + 1] if c + 1 < nx and valid[r, c + 1] else h0
-            hw = h[r, c - 1] if c > 0 and valid[r, c - 1] else h0
-            hs = h[r + 1, c] if r + 1 < ny and valid[r + 1, c] else h0
-            hn = h[r - 1, c] if r > 0 and valid[r - 1, c] else h0
-            gx = _axis_gradient(h0, he, hw, dx, mode)
-            gy = _axis_gradient(h0, hs, hn, dy, mode)
-            s[r * nx + c] = np.sqrt(gx * gx + gy * gy)
+            s[r * nx + c] = cell_slope(h, valid, r, c, dx, dy, mode) if valid[r, c] else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def cell_slope(h, valid, r, c, dx, dy, mode):
+    """``slope_magnitude`` of the valid cell (r, c) of ``h`` (float64[ny, nx], m) (m/m)."""
+    ny, nx = h.shape
+    h0 = h[r, c]
+    he = h[r, c + 1] if c + 1 < nx and valid[r, c + 1] else h0
+    hw = h[r, c - 1] if c > 0 and valid[r, c - 1] else h0
+    hs = h[r + 1, c] if r + 1 < ny and valid[r + 1, c] else h0
+    hn = h[r - 1, c] if r > 0 and valid[r - 1, c] else h0
+    gx = _axis_gradient(h0, he, hw, dx, mode)
+    gy = _axis_gradient(h0, hs, hn, dy, mode)
+    return np.sqrt(gx * gx + gy * gy)
 
 
 @numba.njit(cache=True, parallel=True)

@@ -59,7 +59,7 @@ class Surface:
         """The routing of ``h`` towards its outlets (``unerode_cli.hydro.Routing``), kept for
         as long as ``h`` holds the same values bit for bit (NaN on nodata included), as told by
         a fingerprint of its values (``hydro.routing.fingerprint``: no copy of ``h`` is kept)."""
-        from unerode_cli.hydro.routing import fingerprint, route
+        from unerode_cli.hydro.routing import fingerprint, release_scratch, route
 
         key = fingerprint(h)
         cached = self._cached
@@ -67,6 +67,8 @@ class Surface:
             return cached[1]
         self._cached = None   # the old routing's arrays go before the new ones are made
         routing = route(h, self.terrain.grid, self.outlets(h), self.method)
+        # the flood's work arrays (about 6 bytes a cell) would outlive it until the next routing
+        release_scratch("flood.")
         self._cached = (key, routing)
         return routing
 
@@ -80,6 +82,15 @@ def _change(dh: np.ndarray, budget: MassBudget) -> Change:
 #: measured at 1024² and 2048² (bench/fluvial_implicit.py, docs/erode.md): 1.3–2 without
 #: deposition (one pass), 1.5–4 with it (3–6 pairs of passes; MFD the dearer).
 AUTO_SUBSTEPS = {False: 2, True: 4}
+
+
+def implicit_layout(cells: int) -> str:
+    """The implicit step's layout (``fluvial_implicit.step``): the faster ``"ordered"`` where
+    its extra bytes fit in the memory available now, else ``"lean"``."""
+    from unerode_cli.run.memory import available_bytes
+
+    extra = float(cells) * fluvial_implicit.ORDERED_EXTRA_BYTES_PER_CELL
+    return "ordered" if extra <= available_bytes() else "lean"
 
 
 @dataclass
@@ -114,15 +125,15 @@ class FluvialProcess:
         return dt > 0.0 and (self.forward if self.forward != "auto" else self.chosen) == "implicit"
 
     def _choose(self, elevation: np.ndarray, dt: float) -> None:
-        """Settle ``"auto"`` on the first forward step from the explicit scheme's sub-steps."""
-        routing, change = self._step(elevation, dt)
+        """Settle ``"auto"`` on the first forward step from the explicit scheme's sub-steps,
+        read off the CFL bound of the precipitation's discharge (no step is computed)."""
+        routing = self.surface.routing(elevation)
         stable = fluvial.max_stable_dt(elevation, self.surface.terrain.grid, self.params, routing,
-                                       discharge=change.discharge, validated=True)
+                                       validated=self._checked)
+        self._checked = True
         depositing = bool(np.any(np.asarray(self.params.k_d) > 0.0))
         needed = substeps_needed(dt, stable) if stable > 0.0 else MAX_SUBSTEPS + 1
         self.chosen = "implicit" if needed > AUTO_SUBSTEPS[depositing] else "explicit"
-        if self.chosen == "implicit":
-            self._last = None   # the kept step is the explicit one
 
     def _step(self, elevation: np.ndarray, dt: float) -> tuple[Any, fluvial.FluvialChange]:
         # The surface hands out the same routing object as long as the elevation is unchanged,
@@ -134,7 +145,7 @@ class FluvialProcess:
         last = self._last
         if last is not None and last[0] is routing and last[1] == dt:
             return routing, last[2]
-        self._last = None   # its arrays go before the new step's are made
+        self._last = last = None   # its arrays go before the new step's are made
         # the parameters (frozen) are checked on the first step; later steps skip that scan
         grid = self.surface.terrain.grid
         if self._implicit(dt):
@@ -153,7 +164,7 @@ class FluvialProcess:
         grid = self.surface.terrain.grid
         done = fluvial_implicit.step(elevation, grid, routing.outlets, self.params, dt,
                                      routing=routing, inflow=self.inflow, validated=validated,
-                                     deposition=self._deposition)
+                                     deposition=self._deposition, layout=implicit_layout(grid.valid.size))
         self.passes += done.passes
         self._deposition = done.deposition
         if done.converged or depth == 8:
