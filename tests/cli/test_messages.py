@@ -196,6 +196,9 @@ def test_quiet_and_verbose_mean_the_same_in_every_command(tmp_path: Path, dem: P
     assert said["-qq"] == []                                        # all but errors
     steps = [line for line in said["-v"] if re.match(rf"{command} \d+/2", line)]
     assert len(steps) == 2 and not any(line.endswith(" s)") for line in steps)
+    if command in ("erode", "climate-run"):
+        # the rate of a grid's steps, in cells per second
+        assert all(re.search(r"\[[\d.,]+ M?cells/s\]", line) for line in steps), steps
     timed = [line for line in said["-vv"] if re.match(rf"{command} \d+/2.* \(\d+\.\d+ s\)$", line)]
     assert len(timed) == 2
 

@@ -76,22 +76,28 @@ rasters.set_memory_check(check_fits)
 
 #: Resident bytes of the interpreter with its libraries and compiled kernels, before any grid.
 BASE_BYTES = 0.3 * GIB
-#: Peak resident bytes per cell of a command's run beyond :data:`BASE_BYTES`, measured at
-#: 8192² by ``bench/memory.py`` (docs/memory.md) and rounded up: the grids it holds at once
-#: (elevations, routing, fluxes, work arrays) in its dearest configuration.
+#: Peak resident bytes per cell of a run beyond :data:`BASE_BYTES`, measured at 8192² by
+#: ``bench/memory.py`` (docs/memory.md) and rounded up: the grids it holds at once (elevations,
+#: routing, fluxes, work arrays), the fluvial process in its dearest setting (MFD, K_d > 0). An
+#: implicit erode takes its lean layout where the faster one does not fit (``run.registry``),
+#: so its least is what must fit; explicit steps (unerode, climate-run, erode --scheme
+#: explicit) hold their fluxes and work arrays whole.
 COMMAND_BYTES_PER_CELL = {
     "flow": 32,
-    "erode": 200,
-    "unerode": 200,
-    "climate-run": 200,
+    "erode": 80,
+    "erode explicit": 120,
+    "unerode": 120,
+    "climate-run": 120,
 }
 
 
-def check_command(command: str, header: rasters.RasterHeader, change: str = "") -> float:
+def check_command(command: str, header: rasters.RasterHeader, change: str = "", kind: str = "") -> float:
     """Refuse (InputError, before any cell is read) a run of ``command`` on ``header``'s
-    raster whose estimated peak, :data:`BASE_BYTES` + cells × :data:`COMMAND_BYTES_PER_CELL`,
-    does not fit in the memory available; returns the estimate (bytes)."""
-    nbytes = BASE_BYTES + float(header.cells) * COMMAND_BYTES_PER_CELL[command]
+    raster whose estimated peak, :data:`BASE_BYTES` + cells × :data:`COMMAND_BYTES_PER_CELL`
+    (of ``"command kind"`` when ``kind`` is given), does not fit in the memory available;
+    returns the estimate (bytes)."""
+    per_cell = COMMAND_BYTES_PER_CELL[f"{command} {kind}" if kind else command]
+    nbytes = BASE_BYTES + float(header.cells) * per_cell
     check_fits(nbytes, f"{command} on {header.path} ({header.size_text()})",
                change or "crop it to the area needed first (convert --crop reads only that window) or "
                "coarsen it (convert --cell-size), or use a machine with more memory")

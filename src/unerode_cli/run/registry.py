@@ -126,14 +126,19 @@ class FluvialProcess:
 
     def _choose(self, elevation: np.ndarray, dt: float) -> None:
         """Settle ``"auto"`` on the first forward step from the explicit scheme's sub-steps,
-        read off the CFL bound of the precipitation's discharge (no step is computed)."""
+        read off the CFL bound of the precipitation's discharge (no step is computed); implicit
+        too where the explicit step's arrays would not fit in the memory available."""
+        from unerode_cli.run.memory import COMMAND_BYTES_PER_CELL, available_bytes
+
         routing = self.surface.routing(elevation)
         stable = fluvial.max_stable_dt(elevation, self.surface.terrain.grid, self.params, routing,
                                        validated=self._checked)
         self._checked = True
         depositing = bool(np.any(np.asarray(self.params.k_d) > 0.0))
         needed = substeps_needed(dt, stable) if stable > 0.0 else MAX_SUBSTEPS + 1
-        self.chosen = "implicit" if needed > AUTO_SUBSTEPS[depositing] else "explicit"
+        explicit_bytes = float(elevation.size) * COMMAND_BYTES_PER_CELL["erode explicit"]
+        fits = explicit_bytes <= available_bytes()
+        self.chosen = "implicit" if needed > AUTO_SUBSTEPS[depositing] or not fits else "explicit"
 
     def _step(self, elevation: np.ndarray, dt: float) -> tuple[Any, fluvial.FluvialChange]:
         # The surface hands out the same routing object as long as the elevation is unchanged,

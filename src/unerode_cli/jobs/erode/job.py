@@ -240,7 +240,9 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
         check_raster(path, outputs.options, replace, (job.source,))
     if job.change_map and job.preview:
         check_png(change_preview_path(job.change_map), replace, (job.source,))
-    check_command(job.command, read_header(job.source, band=job.band))
+    forward, _ = schemes_of(job)
+    explicit = job.command == "erode" and forward == "explicit"
+    check_command(job.command, read_header(job.source, band=job.band), kind="explicit" if explicit else "")
     terrain = read_terrain(job.source, band=job.band, channel=job.channel)
     terrain.check_valid(job.source)
     check_metres(terrain, job.source, job.force)
