@@ -292,17 +292,18 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
     # the elevation is the run's own (NaN on nodata): written as it is, not copied
     output = terrain.holding(result.elevation)
     output.tags[TIME_TAG] = repr(report.elapsed_years)
-    change = process_change(terrain, result.elevation, prepared, report)
-    stats = _statistics(report, change, result.wall_s, result.snapshots)
+    counts: dict[str, Any] = {}
     for process in prepared.processes:
         if getattr(process, "chosen", None):
-            stats["fluvial_scheme"] = process.chosen          # what --scheme auto chose
+            counts["fluvial_scheme"] = process.chosen          # what --scheme auto chose
         if getattr(process, "passes", 0):
             # passes of the implicit fluvial steps' deposition iteration (each converged)
-            stats["fluvial_implicit_passes"] = process.passes
+            counts["fluvial_implicit_passes"] = process.passes
         if hasattr(process, "release"):
             process.release()       # the run's routing and work arrays go before the writing
     release_scratch()
+    change = process_change(terrain, result.elevation, prepared, report)
+    stats = {**_statistics(report, change, result.wall_s, result.snapshots), **counts}
     save(output, prepared.outputs, job.command, _provenance(prepared), stats)
     if job.change_map is not None:
         layer = terrain.holding(change)   # NaN on nodata, as both elevations are
@@ -340,9 +341,13 @@ def _provenance(prepared: PreparedJob) -> dict[str, Any]:
 
 def _statistics(report: RunReport, change: np.ndarray, wall: float,
                 snapshots: list[Path]) -> dict[str, Any]:
-    valid = np.isfinite(change)
-    absolute = np.abs(change)
-    count = max(int(np.count_nonzero(valid)), 1)
+    total, largest, count = 0.0, 0.0, 0
+    for first in range(0, change.shape[0], 256):   # strips of rows: no temporary grid
+        strip = np.abs(change[first:first + 256])
+        valid = np.isfinite(strip)
+        total += float(np.sum(strip, where=valid, dtype=np.float64))
+        largest = max(largest, float(np.max(strip, where=valid, initial=0.0)))
+        count += int(np.count_nonzero(valid))
     return {
         "steps": report.steps,
         "substeps": report.substeps,
@@ -350,8 +355,8 @@ def _statistics(report: RunReport, change: np.ndarray, wall: float,
         "mass_budget_m3": {name: {"eroded": b.eroded, "deposited": b.deposited,
                                   "outflux": b.outflux, "inflow": b.inflow, "residual": b.residual}
                            for name, b in report.budgets.items()},
-        "mean_abs_change_m": float(np.sum(absolute, where=valid, dtype=np.float64)) / count,
-        "max_abs_change_m": float(np.max(absolute, where=valid, initial=0.0)),
+        "mean_abs_change_m": total / max(count, 1),
+        "max_abs_change_m": largest,
         "wall_time_s": wall,
         "snapshots": [str(p) for p in snapshots],
     }
