@@ -206,23 +206,10 @@ def _sweep(h0: np.ndarray, grid: Grid, routing: Routing, params: FluvialParams, 
     shape, order = grid.shape, routing.order
     fields = (flat_field(params.k_d, shape, "k_d"), uplift, float(dt))
     done = fik.implicit_sweep_into(
-        h0, routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single, discharge,
-        _gradient(h0.reshape(shape), grid, routing.single), k, float(params.n), float(params.m),
-        *fields, sediment_in, float(rtol), ATOL, int(max_passes), new,
-        sediment_flux, rates, scratch("fluvial_implicit.work", (6, order.size), np.float64),
+        h0, grid.valid, routing.filled, routing.outlets, order, grid.dx, grid.dy, routing.single, discharge,
+        k, float(params.n), float(params.m), *fields, sediment_in, float(rtol), ATOL, int(max_passes), new,
+        sediment_flux, rates, scratch("fluvial_implicit.work", (4, order.size), np.float64),
+        scratch("fluvial_implicit.work32", (2, order.size), np.float32),
         scratch("fluvial_implicit.position", (h0.size,), order.dtype.type))
     passes, residual, _clipped, eroded, deposited, outflow = done
     return int(passes), float(residual), float(eroded), float(deposited), float(outflow)
-
-
-def _gradient(h: np.ndarray, grid: Grid, single: bool) -> np.ndarray:
-    """|∇h| of 000 Eq. 9 (float64[ny*nx]) to which MFD's weighted receiver slopes are scaled,
-    or float64[0] with D8 (no scaling)."""
-    from unerode_cli.hydro.routing import scratch
-    from unerode_cli.processes import fluvial_kernels as fk
-
-    if single:
-        return np.empty(0, dtype=np.float64)
-    gradient = scratch("fluvial_implicit.gradient", (h.size,), np.float64)
-    fk.slope_into(h, grid.valid, grid.dx, grid.dy, fk.DOWNSTREAM, gradient)
-    return gradient

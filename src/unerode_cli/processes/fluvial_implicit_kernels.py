@@ -12,7 +12,7 @@ import numba
 import numpy as np
 
 from unerode_cli.hydro.kernels import flow_fractions, inverse_distances, neighbour_offsets
-from unerode_cli.processes.fluvial_kernels import _at
+from unerode_cli.processes.fluvial_kernels import DOWNSTREAM, _at, cell_slope
 
 #: Bisection–Newton iterations of one cell's equation for n ≠ 1 (each at least halves the
 #: bracket, so 200 reach the last bit of any float64 bracket).
@@ -137,8 +137,8 @@ def _gather_cell(p, i, h0, dep, water, k_d, inv_area, h0p, hnp, depp, trap):
 
 
 @numba.njit(cache=True)
-def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, n, m, k_d, uplift, dt,
-                        qs_in, rtol, atol, max_iter, hn, qs, dep, work, position):
+def implicit_sweep_into(h0, valid, zf, outlets, order, dx, dy, single, q, k, n, m, k_d, uplift, dt,
+                        qs_in, rtol, atol, max_iter, hn, qs, dep, work, work32, position):
     """One implicit forward step of 000 Eq. 3 (dt > 0).
 
     Stream power, implicit in the new elevations (Braun & Willett 2013): in a pass over the
@@ -164,8 +164,8 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
         zf, outlets, order, dx, dy, single: the routing of ``h0`` (``unerode_cli.hydro``); the
             receivers and their weights are those of ``zf``, kept through the step.
         q: float64[ny*nx] discharge Q (m³/y).
-        gradient: float64[ny*nx] |∇h| of ``h0`` (000 Eq. 9) to which each cell's weighted
-            receiver slope is scaled at the start of the step (MFD), or float64[0]: no scaling.
+        valid: bool[ny, nx] the domain, for |∇h| of ``h0`` (000 Eq. 9), to which each cell's
+            weighted receiver slope is scaled at the start of the step with MFD.
         k: field K; n, m: exponents; k_d: field K_d (m/y); uplift: field U (m/y); dt: step (y).
         qs_in: float64[ny*nx] sediment flux entering each cell from outside the map (m³/y),
             or float64[1] for none; rtol, atol, max_iter: as above.
@@ -174,7 +174,9 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
             leaves the map there).
         dep: float64[ny*nx] deposition rates D (m/y): on entry the first guess (e.g. the
             previous step's, or 0), on return those of the last pass.
-        work, position: scratch, float64[6, order.size] and of ny*nx (``order``'s dtype).
+        work, work32, position: scratch, float64[4, order.size], float32[2, order.size] (the
+            coefficients K·Q^m·dt and the trapping, whose rounding is far below the step's) and
+            of ny*nx (``order``'s dtype).
 
     Returns:
         (passes, largest change of D·dt in the last pass ÷ the tolerance it had to meet (≤ 1:
@@ -189,13 +191,14 @@ def implicit_sweep_into(h0, zf, outlets, order, dx, dy, single, q, gradient, k, 
     inv_dist = inverse_distances(dx, dy)
     size = order.size
     area = dx * dy
-    h0p, hnp, depp, qsp, coefp, trap = work[0], work[1], work[2], work[3], work[4], work[5]
+    h0p, hnp, depp, qsp = work[0], work[1], work[2], work[3]
+    coefp, trap = work32[0], work32[1]
     start = _starts(z, out, order, ny, nx, off, inv_dist, single, position)
     rcv = np.empty(start[size], dtype=order.dtype)
-    share = np.empty(start[size], dtype=np.float64)
+    share = np.empty(start[size], dtype=np.float32)
     code = np.empty(start[size], dtype=np.int8)
-    depositing = _layout(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n, m, k_d, dt,
-                         dep, area, position, start, rcv, share, code, h0p, hnp, depp, coefp, trap)
+    depositing = _layout(h0, valid, z, out, order, ny, nx, off, inv_dist, single, q, k, n, m, k_d, dt,
+                         dep, dx, dy, position, start, rcv, share, code, h0p, hnp, depp, coefp, trap)
     passes = 0
     ratio = 0.0
     clipped = 0.0
@@ -320,14 +323,22 @@ def _sediment_pass(order, out, start, rcv, share, code, inv_dist, uplift, dt, qs
         clipped += max(-leaving, 0.0)
         leaving = max(leaving, 0.0)
         qsp[p] = leaving
-        for j in range(start[p], start[p + 1]):
-            qsp[rcv[j]] += share[j] * leaving
+        # float32 fractions: the last receiver takes what the others leave, so that the flux
+        # is passed on whole
+        rest = leaving
+        last = start[p + 1] - 1
+        for j in range(start[p], last):
+            part = share[j] * leaving
+            qsp[rcv[j]] += part
+            rest -= part
+        if last >= start[p]:
+            qsp[rcv[last]] += rest
     return change, largest, clipped, eroded, deposited
 
 
 @numba.njit(cache=True)
-def _layout(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n, m, k_d, dt, dep, area,
-                position, start, rcv, share, code, h0p, hnp, depp, coefp, trap):
+def _layout(h0, valid, z, out, order, ny, nx, off, inv_dist, single, q, k, n, m, k_d, dt, dep, dx, dy,
+            position, start, rcv, share, code, h0p, hnp, depp, coefp, trap):
     """The step's arrays by position in ``order`` (start elevations, first deposition rates,
     trapping), each cell's receivers listed from ``start[p]`` to ``start[p + 1]`` (positions,
     flow fractions, neighbour numbers; one with D8), and K·Q^m·dt, with MFD scaled to 000 Eq. 9's
@@ -336,7 +347,8 @@ def _layout(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n,
     nothing is incised. Returns whether any K_d > 0."""
     frac = np.empty(8, dtype=np.float64)
     depositing = False
-    inv_area = 1.0 / area
+    inv_area = 1.0 / (dx * dy)
+    grid_h0 = h0.reshape(ny, nx)
     for p in range(order.size):
         i = order[p]
         water = q[i]
@@ -356,8 +368,9 @@ def _layout(h0, z, out, order, ny, nx, off, inv_dist, single, q, gradient, k, n,
                 j += 1
         if water > 0.0 and not z[i] > h0[i]:
             c = _at(k, i) * math.exp2(m * math.log2(water)) * dt
-            if weighted > 0.0 and gradient.size > 0:
-                ratio = gradient[i] / weighted
+            if weighted > 0.0 and not single:
+                r = i // nx
+                ratio = cell_slope(grid_h0, valid, r, i - r * nx, dx, dy, DOWNSTREAM) / weighted
                 c *= ratio if n == 1.0 else ratio**n
             coefp[p] = c
     return depositing
