@@ -127,12 +127,18 @@ def main() -> None:
                          "bytes_per_cell": round(peak / cells, 1), "exit_code": code}
         print(f"{name:45s} {wall:8.1f} s {peak / 2**30:7.2f} GiB {peak / cells:6.1f} B/cell (exit {code})",
               flush=True)
+        write_reports(results)
     shutil.rmtree(out, ignore_errors=True)
+
+
+def write_reports(results: dict[str, dict]) -> None:
+    """bench/memory.json and bench/memory.md, after every case (a long session keeps what it has)."""
     machine = {"cpus": os.cpu_count(), "python": platform.python_version(), "date": time.strftime("%Y-%m-%d")}
-    json_path.write_text(json.dumps({"machine": machine, "cases": results}, indent=2) + "\n")
-    lines = ["| case | cells | wall (s) | peak RSS (GiB) | bytes/cell |", "|---|---:|---:|---:|---:|"]
-    lines += [f"| {k} | {v['cells']:,} | {v['wall_s']} | {v['peak_rss_gib']} | {v['bytes_per_cell']} |"
-              for k, v in results.items()]
+    (HERE / "memory.json").write_text(json.dumps({"machine": machine, "cases": results}, indent=2) + "\n")
+    lines = ["| case | cells | wall (s) | peak RSS (GiB) | bytes/cell | exit |",
+             "|---|---:|---:|---:|---:|---:|"]
+    lines += [f"| {k} | {v['cells']:,} | {v['wall_s']} | {v['peak_rss_gib']} | {v['bytes_per_cell']} "
+              f"| {v['exit_code']} |" for k, v in results.items()]
     title = (f"Peak memory of whole commands ({machine['cpus']} CPUs, {machine['date']}; "
              "`python bench/memory.py`)")
     (HERE / "memory.md").write_text(title + "\n\n" + "\n".join(lines) + "\n")

@@ -30,10 +30,12 @@ ROWS_AT_ONCE = 512
 def implausible(terrain: Terrain) -> str:
     """Why ``terrain`` cannot be metres of a real terrain ('' when it can): an elevation beyond
     the Earth's, or more than ``MOST_CLIFFS`` of the cells steeper than ``CLIFF_DEG``."""
-    valid = terrain.elevation[np.isfinite(terrain.elevation)]
-    if valid.size == 0:
+    finite = np.isfinite(terrain.elevation)
+    if not finite.any():
         return ""
-    low, high = float(valid.min()), float(valid.max())
+    low = float(np.min(terrain.elevation, where=finite, initial=np.inf))
+    high = float(np.max(terrain.elevation, where=finite, initial=-np.inf))
+    del finite
     if low < LOWEST_M or high > HIGHEST_M:
         return (f"its elevations reach {low:.6g} … {high:.6g} m, beyond the Earth's "
                 f"{LOWEST_M:.0f} … +{HIGHEST_M:.0f} m")
