@@ -198,3 +198,15 @@ def test_a_run_that_would_not_fit_is_refused_with_its_estimate(
     assert needed == pytest.approx(expected, abs=0.06)
     available = float(re.search(r"the ([\d,.]+) GiB available", said).group(1).replace(",", ""))
     assert 0.0 < available <= 10.0
+
+
+def test_the_implicit_step_takes_its_lean_layout_where_the_ordered_one_would_not_fit(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from unerode_cli.run.registry import implicit_layout
+
+    monkeypatch.setenv(memory.MEMORY_ENV, "1000")
+    assert implicit_layout(4096 * 4096) == "ordered" or memory.available_bytes() < 64 * 4096**2
+    # under a cap, what the process already holds counts against it
+    monkeypatch.setenv(memory.MEMORY_ENV, "0.01")
+    assert memory.headroom_bytes() < 0.0
+    assert implicit_layout(64 * 64) == "lean"

@@ -4,7 +4,7 @@ The same equations, passes and iteration as ``fluvial_implicit_kernels.implicit_
 (Braun & Willett 2013; Yuan et al. 2019, §3.2; see there), but nothing is laid out in the
 routing's order: each pass reads its cells where they lie and works out each cell's receivers
 and flow fractions again from the routing surface (000 Eq. 6). Besides its inputs and outputs
-the step holds one float32 grid (K·Q^m·dt), against about 70 bytes a cell of the laid-out
+the step holds one float32 grid (K·Q^m·dt), against about 60 bytes a cell of the laid-out
 kernel's in-order copies and receiver lists; each pass costs more (scattered reads, the
 fractions computed again), so the process takes it where the laid-out one would not fit.
 

@@ -86,11 +86,11 @@ AUTO_SUBSTEPS = {False: 2, True: 4}
 
 def implicit_layout(cells: int) -> str:
     """The implicit step's layout (``fluvial_implicit.step``): the faster ``"ordered"`` where
-    its extra bytes fit in the memory available now, else ``"lean"``."""
-    from unerode_cli.run.memory import available_bytes
+    its extra bytes fit in what the run may still allocate, else ``"lean"``."""
+    from unerode_cli.run.memory import headroom_bytes
 
     extra = float(cells) * fluvial_implicit.ORDERED_EXTRA_BYTES_PER_CELL
-    return "ordered" if extra <= available_bytes() else "lean"
+    return "ordered" if extra <= headroom_bytes() else "lean"
 
 
 @dataclass
