@@ -54,3 +54,12 @@ def _cgroup_room() -> float | None:
         return max(float(limit) - float(current), 0.0)
     except (OSError, ValueError):
         return None
+
+
+def resident_bytes() -> float:
+    """Bytes this process holds in memory now (its resident set; 0 where /proc is missing)."""
+    try:
+        with open("/proc/self/statm") as statm:
+            return float(int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, IndexError):
+        return 0.0

@@ -23,6 +23,11 @@ is not incised: the water stands and the sediment arriving settles there by K_d/
 such cells at the slope of the real surface, as the explicit step does, makes the deposition
 iteration cycle: their receivers on the filled surface are arbitrary.)
 
+Two layouts of the step's arrays give the same step to rounding: ``"ordered"`` copies them in
+the routing's order with each cell's receivers listed (``fluvial_implicit_kernels``: the
+faster, about 60 bytes a cell more), ``"lean"`` keeps them where the cells lie and works the
+receivers out again in each pass (``fluvial_implicit_lean_kernels``: 4 bytes a cell more).
+
 Backward steps (unerosion) keep the explicit limiter scheme of ``fluvial.step``.
 """
 
@@ -100,13 +105,8 @@ def step(
         rtol: tolerance of the deposition iteration (share of the largest |Δh|).
         max_passes: most passes of the deposition iteration.
         deposition: float64[ny, nx] first guess of the deposition rates D (m/y), e.g. the
-            previous step's ``ImplicitStep.deposition``, which is updated in place (a
-            C-contiguous float64 array; anything else is copied); 0 when None.
-        layout: ``"ordered"``: the step's arrays copied in the routing's order with each cell's
-            receivers listed (``fluvial_implicit_kernels``: the faster, about 60 bytes a cell
-            more); ``"lean"``: on the cells where they lie, receivers worked out again in each
-            pass (``fluvial_implicit_lean_kernels``: 4 bytes a cell more). Both give the same
-            step to rounding.
+            previous step's ``ImplicitStep.deposition`` (updated in place); 0 when None.
+        layout: ``"ordered"`` or ``"lean"`` (see the module docstring).
 
     Returns:
         the change with Q, Q_s and the mass budget (eroded + inflow − deposited − outflux = 0

@@ -149,15 +149,14 @@ def implicit_sweep_into(h0, valid, zf, outlets, order, dx, dy, single, q, k, n, 
     (Q̃s arriving, Qs = Q̃s + (U − Δh/dt)·A leaving, exactly what the cell lost) and sets the new
     D = Q̃s·min(K_d/Q, 1/A) (000 Eq. 8, capped as the explicit step is); the passes repeat
     until D·dt changes by at most max(``atol``, ``rtol``·max|Δh|) (m) on every cell, or
-    ``max_iter`` passes. Where the largest change has not halved in three passes, the rates are
-    under-relaxed (D ← D + ω·(D_new − D), ω halved each time, down to 1/64).
+    ``max_iter`` passes; where the largest change has not halved in three passes, the rates
+    are under-relaxed (D ← D + ω·(D_new − D), ω halved each time, down to 1/64).
 
-    The arrays are laid out in the routing's order, so each pass reads its cells in sequence,
-    and each cell's receivers (positions, fractions, neighbour numbers) are listed once.
-
-    The sediment fluxes of the last pass follow from the elevations, so the mass budget holds
-    to rounding whatever the iteration count; a leaving flux that would be negative (more
-    deposited than arrived, only before convergence) is set to 0 and its volume returned.
+    The arrays are laid out in the routing's order (each pass reads its cells in sequence),
+    each cell's receivers (positions, fractions, neighbour numbers) listed once. The sediment
+    fluxes of the last pass follow from the elevations, so the mass budget holds to rounding
+    whatever the iteration count; a leaving flux that would be negative (more deposited than
+    arrived, only before convergence) is set to 0 and its volume returned.
 
     Args:
         h0: float64[ny*nx] elevation at the start (m).
@@ -174,9 +173,8 @@ def implicit_sweep_into(h0, valid, zf, outlets, order, dx, dy, single, q, k, n, 
             leaves the map there).
         dep: float64[ny*nx] deposition rates D (m/y): on entry the first guess (e.g. the
             previous step's, or 0), on return those of the last pass.
-        work, work32, position: scratch, float64[4, order.size], float32[2, order.size] (the
-            coefficients K·Q^m·dt and the trapping, whose rounding is far below the step's) and
-            of ny*nx (``order``'s dtype).
+        work, work32, position: scratch: float64[4, order.size], float32[2, order.size] (K·Q^m·dt
+            and the trapping) and of ny*nx (``order``'s dtype).
 
     Returns:
         (passes, largest change of D·dt in the last pass ÷ the tolerance it had to meet (≤ 1:
@@ -191,8 +189,7 @@ def implicit_sweep_into(h0, valid, zf, outlets, order, dx, dy, single, q, k, n, 
     inv_dist = inverse_distances(dx, dy)
     size = order.size
     area = dx * dy
-    h0p, hnp, depp, qsp = work[0], work[1], work[2], work[3]
-    coefp, trap = work32[0], work32[1]
+    (h0p, hnp, depp, qsp), (coefp, trap) = work, work32
     start = _starts(z, out, order, ny, nx, off, inv_dist, single, position)
     rcv = np.empty(start[size], dtype=order.dtype)
     share = np.empty(start[size], dtype=np.float32)

@@ -19,7 +19,7 @@ import os
 
 from unerode_cli.errors import InputError
 from unerode_cli.io import rasters
-from unerode_cli.io.system_memory import memory_available
+from unerode_cli.io.system_memory import memory_available, resident_bytes
 
 GIB = float(2**30)
 #: Environment variable: at most this many GiB are taken to be available.
@@ -52,12 +52,7 @@ def headroom_bytes() -> float:
     (``UNERODE_MEMORY_GIB``, the whole share of the job) the cap less what the process holds."""
     free = available_bytes()
     if os.environ.get(MEMORY_ENV):
-        try:
-            with open("/proc/self/statm") as statm:
-                held = int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-        except (OSError, ValueError, IndexError):
-            held = 0
-        free = min(free, float(os.environ[MEMORY_ENV]) * GIB - held)
+        free = min(free, float(os.environ[MEMORY_ENV]) * GIB - resident_bytes())
     return free
 
 
