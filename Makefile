@@ -8,7 +8,7 @@ SAMPLE := sample_dems/eroded_utm32n_30m.tif
 # real chronologies (LR04 δ18O stack, Spratt & Lisiecki 2016 sea level), beside the checkout
 DATA   ?= ../shared/data
 
-.PHONY: venv install test test-all demo bench lint clean
+.PHONY: venv install test test-all demo bench bench-memory lint clean
 
 venv: $(STAMP)
 
@@ -50,6 +50,10 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/run.py
+
+# peak memory of whole commands at 8192² and 16 384² (about 45 minutes; bench/memory.md)
+bench-memory: $(STAMP)
+	$(BIN)/python bench/memory.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench
