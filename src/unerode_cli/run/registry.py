@@ -49,22 +49,21 @@ class Surface:
         """Drop the kept routing."""
         self._cached = None
 
-    def holds(self, h: np.ndarray) -> bool:
-        """Whether the kept routing is that of ``h`` (same values bit for bit)."""
-        from unerode_cli.hydro.routing import fingerprint
+    def holds(self, key: tuple[tuple[int, ...], int]) -> bool:
+        """Whether the kept routing is that of the elevation whose fingerprint is ``key``
+        (``hydro.routing.fingerprint``)."""
+        return self._cached is not None and self._cached[0] == key
 
-        return self._cached is not None and self._cached[0] == fingerprint(h)
-
-    def routing(self, h: np.ndarray) -> Any:
+    def routing(self, h: np.ndarray, key: tuple[tuple[int, ...], int] | None = None) -> Any:
         """The routing of ``h`` towards its outlets (``unerode_cli.hydro.Routing``), kept for
         as long as ``h`` holds the same values bit for bit (NaN on nodata included), as told by
-        a fingerprint of its values (``hydro.routing.fingerprint``: no copy of ``h`` is kept)."""
+        a fingerprint of its values (``hydro.routing.fingerprint``: no copy of ``h`` is kept);
+        ``key``: that fingerprint when the caller has it already."""
         from unerode_cli.hydro.routing import fingerprint, release_scratch, route
 
-        key = fingerprint(h)
-        cached = self._cached
-        if cached is not None and cached[0] == key:
-            return cached[1]
+        key = fingerprint(h) if key is None else key
+        if self.holds(key):
+            return self._cached[1]  # type: ignore[index]
         self._cached = None   # the old routing's arrays go before the new ones are made
         routing = route(h, self.terrain.grid, self.outlets(h), self.method)
         # the flood's work arrays (about 6 bytes a cell) would outlive it until the next routing
@@ -144,9 +143,12 @@ class FluvialProcess:
         # The surface hands out the same routing object as long as the elevation is unchanged,
         # so it keys the kept step too; a kept step of another elevation goes first, with its
         # routing, before the new ones are made.
-        if self._last is not None and not self.surface.holds(elevation):
+        from unerode_cli.hydro.routing import fingerprint
+
+        key = fingerprint(elevation)
+        if self._last is not None and not self.surface.holds(key):
             self._last = None
-        routing = self.surface.routing(elevation)
+        routing = self.surface.routing(elevation, key)
         last = self._last
         if last is not None and last[0] is routing and last[1] == dt:
             return routing, last[2]
