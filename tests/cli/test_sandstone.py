@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +15,8 @@ from tests.conftest import run_cli, write_geotiff
 
 from unerode_cli.io.particle_ply import read_particle_ply
 from unerode_cli.io.rasters import read_terrain
+from unerode_cli.jobs.sandstone.options import PRESET_NAMES
+from unerode_cli.volume.mesh import PALETTE
 
 SCENE = """
 domain: {size: [20, 12, 14]}
@@ -28,6 +33,14 @@ paint:
 wind: {azimuth: 180, speed: 10}
 """
 FAST = ("--substeps", "20", "--settle-substeps", "400", "-q")
+HELP_PROBE = """
+import sys
+from unerode_cli.cli.app import app
+try:
+    app(["sandstone", "--help"], standalone_mode=False)
+finally:
+    print("NUMBA=" + str("numba" in sys.modules), file=sys.stderr)
+"""
 
 
 def _scene(tmp_path: Path, text: str = SCENE) -> Path:
@@ -45,7 +58,9 @@ def test_a_scene_run_writes_every_output(tmp_path: Path) -> None:
             "deposit", "interlocked"} <= set(props)
     assert len(props["x"]) == pytest.approx(4000, rel=0.05) and origin == (0.0, 0.0, 0.0)
     normals = np.column_stack([props["nx"], props["ny"], props["nz"]])[props["surface"] == 1]
-    assert np.median(np.linalg.norm(normals, axis=1)) == pytest.approx(1.0, abs=1e-3)
+    assert np.linalg.norm(normals, axis=1) == pytest.approx(1.0, abs=1e-3)   # every surface particle's
+    colours = np.column_stack([props["red"], props["green"], props["blue"]])
+    assert np.array_equal(colours, PALETTE[props["layer"] % len(PALETTE)])  # the layer's, as the mesh's
     assert props["stress"].max() < 1.0  # MPa: a 10 m rock weighs ~0.2 MPa at its base
     painted = (props["x"] < 5.9) & (props["deposit"] == 0)
     assert np.all(props["erodibility"][painted] == 0.0)
@@ -158,3 +173,47 @@ def test_a_scene_carries_the_frames_and_time_step_its_landform_needs(tmp_path: P
     assert given.returncode == 0, given.stderr
     run = json.loads((tmp_path / "given" / "run.json").read_text())
     assert run["statistics"]["frames"] == 2 and run["parameters"]["dt_years"] == 100.0
+
+
+def test_help_lists_every_preset_without_loading_numba() -> None:
+    """The presets named in ``--help`` (a static list, so that --help need not load the scene
+    parser or numba) are those of ``sandstone.presets``."""
+    from unerode_cli.sandstone.presets import PRESETS
+
+    assert PRESET_NAMES == tuple(PRESETS)
+    result = subprocess.run([sys.executable, "-c", HELP_PROBE], capture_output=True, text=True, timeout=120,
+                            env={**os.environ, "COLUMNS": "100"})
+    text = " ".join(result.stdout.replace("│", " ").split())
+    assert f"a preset ({', '.join(PRESETS)}), or a DEM" in text, text
+    assert "NUMBA=False" in result.stderr
+
+
+def test_a_mesh_in_the_out_dir_that_the_run_creates(tmp_path: Path) -> None:
+    """``--mesh OUT_DIR/rock.obj`` is accepted before OUT_DIR exists: the job creates OUT_DIR."""
+    out = tmp_path / "run"
+    result = run_cli("sandstone", "arch", out, "--particles", "3000", "--frames", "1", "--mesh",
+                     out / "rock.obj", *FAST)
+    assert result.returncode == 0, result.stderr
+    assert (out / "rock.obj").stat().st_size > 1000
+    assert json.loads((out / "run.json").read_text())["statistics"]["mesh"]["faces"] > 100
+    nested = run_cli("sandstone", "arch", tmp_path / "other", "--particles", "3000", "--frames", "1",
+                     "--mesh", tmp_path / "other" / "sub" / "rock.obj", *FAST)
+    _assert_refused(nested, tmp_path / "other", "does not exist")
+
+
+def test_npz_snapshots_hold_the_columns_of_the_ply(tmp_path: Path) -> None:
+    """``--snapshot-format npz``: the snapshot of the last frame holds particles.ply's columns,
+    value for value, in a compressed archive smaller than the PLY."""
+    out = tmp_path / "run"
+    result = run_cli("sandstone", _scene(tmp_path), out, "--frames", "2", "--snapshot-every", "2",
+                     "--snapshot-format", "npz", *FAST)
+    assert result.returncode == 0, result.stderr
+    snapshot = out / "snapshots" / "frame_00002.npz"
+    assert not (out / "snapshots" / "frame_00002.ply").exists()
+    npz, origin = read_particle_ply(snapshot)
+    ply, ply_origin = read_particle_ply(out / "particles.ply")
+    assert npz.keys() == ply.keys() and origin == ply_origin
+    assert all(np.array_equal(npz[k], ply[k]) and npz[k].dtype == ply[k].dtype for k in ply)
+    assert snapshot.stat().st_size < 0.6 * (out / "particles.ply").stat().st_size
+    with np.load(snapshot) as plain:                # a plain archive: one array per column
+        assert plain["x"].dtype == np.float32 and len(plain["x"]) == len(ply["x"])

@@ -91,7 +91,7 @@ def test_the_arch_preset_end_to_end(tmp_path: Path) -> None:
 def test_an_unknown_mesh_extension_is_refused_before_the_run(tmp_path: Path) -> None:
     out = tmp_path / "run"
     result = run_cli("sandstone", "arch", out, "--mesh", tmp_path / "rock.stl", "--frames", "1")
-    _assert_refused(result, out, "--mesh: a mesh is written as .ply or .obj, not 'rock.stl'.")
+    _assert_refused(result, out, "--mesh: a mesh is written as .ply, .obj or .glb, not 'rock.stl'.")
 
 
 def test_without_scikit_image_the_mesh_is_refused_with_the_extra_to_install(tmp_path: Path) -> None:

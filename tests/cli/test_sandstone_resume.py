@@ -1,14 +1,18 @@
-"""sandstone on the shared stepping loop: --max-steps stops with its checkpoint (OUT_DIR/state.npz)
-and the outputs of the frames done, --resume continues bit for bit (particles, top heightfield,
-the frames' counts), a finished run removes its checkpoint, and a checkpoint of another run is
-refused."""
+"""sandstone on the shared stepping loop: --max-steps stops with its checkpoint (OUT_DIR/state.npz,
+compressed, without what a frame recomputes first) and the outputs of the frames done, --resume
+continues bit for bit (particles, top heightfield, the frames' counts) and reports the whole run,
+a finished run removes its checkpoint, and a checkpoint of another run is refused."""
 
 from __future__ import annotations
 
 import csv
+import json
+import re
+import zipfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 from tests.conftest import run_cli
 
 from unerode_cli.io.particle_ply import read_particle_ply
@@ -83,3 +87,34 @@ def test_a_checkpoint_of_another_run_is_refused(tmp_path: Path) -> None:
     assert other.returncode == 2
     assert "other parameters or another seed" in other.stderr
     assert (out / "state.npz").read_bytes() == state
+
+
+def test_a_resumed_run_reports_the_whole_run(tmp_path: Path) -> None:
+    """After --resume the progress counts on from the frames done, and the summary and run.json
+    count every frame of the run (the rows restored with the state and the new ones: frames.csv's
+    sums) and the wall time of both invocations."""
+    scene, out = _scene(tmp_path), tmp_path / "out"
+    options = ("--frames", "2", *OPTIONS[2:])
+    stopped = run_cli("sandstone", scene, out, *options, "--max-steps", "1")
+    assert stopped.returncode == 0, stopped.stderr
+    first = float(re.search(r"in ([\d.]+) s;", stopped.stderr).group(1))
+    with zipfile.ZipFile(out / "state.npz") as state:
+        names = set(state.namelist())
+        assert all(info.compress_type == zipfile.ZIP_DEFLATED for info in state.infolist())
+    assert "array.particle_deformation.npy" in names and "array.particle_stress.npy" not in names
+    resumed = run_cli("sandstone", scene, out, *options, "--resume", "-v")
+    assert resumed.returncode == 0, resumed.stderr
+    assert "sandstone 2/2: " in resumed.stderr and "sandstone 1/" not in resumed.stderr   # counts on
+    said = re.search(r"after 2 frames \(([\d,]+) eroded, ([\d,]+) exported; .*\) in ([\d.]+) s "
+                     r"\(([\d.]+) s in this invocation\)", resumed.stderr)
+    assert said, resumed.stderr
+    with open(out / "frames.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [r["frame"] for r in rows] == ["1", "2"]
+    eroded, exported = (sum(int(r[k]) for r in rows) for k in ("eroded", "exported"))
+    assert (int(said.group(1).replace(",", "")), int(said.group(2).replace(",", ""))) == (eroded, exported)
+    whole, this = float(said.group(3)), float(said.group(4))
+    assert this <= whole <= first + this + 0.1 and whole - this > 0.0
+    statistics = json.loads((out / "run.json").read_text())["statistics"]
+    assert (statistics["frames"], statistics["eroded"], statistics["exported"]) == (2, eroded, exported)
+    assert statistics["wall_time_s"] == pytest.approx(whole, abs=0.051)

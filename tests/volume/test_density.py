@@ -1,13 +1,16 @@
 """Particle densities: the volume they carry (a conservation law), the half-density boundary of a
-flat face, the ground plane, and the dominant material."""
+flat face at any cell, the ground plane, the dominant material, and the memory a field takes
+(against tracemalloc's count)."""
 
 from __future__ import annotations
+
+import tracemalloc
 
 import numpy as np
 import pytest
 from tests.volume.conftest import jittered_lattice
 
-from unerode_cli.volume.density import NO_MATERIAL, particle_density
+from unerode_cli.volume.density import NO_MATERIAL, density_bytes, particle_density
 
 SPACING = 0.5
 
@@ -55,3 +58,48 @@ def test_negative_materials_and_no_particles_are_refused() -> None:
         particle_density(np.zeros((2, 3)), np.array([0, -1]), 1.0, 1.0)
     with pytest.raises(ValueError, match="no particles"):
         particle_density(np.zeros((0, 3)), np.zeros(0, dtype=int), 1.0, 1.0)
+
+
+@pytest.mark.parametrize("cell", [SPACING / 2, 2 * SPACING])
+def test_at_any_cell_the_field_holds_the_particles_volume_and_a_flat_face_stays(cell: float) -> None:
+    """The face (x = 0) is where the field, interpolated between nodes as marching cubes does,
+    crosses ½, within a quarter spacing."""
+    points = jittered_lattice((40, 40, 40), SPACING)  # a 20 m cube from the origin
+    density = particle_density(points, np.zeros(len(points), dtype=int), SPACING**3, cell)
+    assert density.h == cell
+    assert density.values.sum() * cell**3 == pytest.approx(len(points) * SPACING**3, rel=1e-5)
+    x = density.origin[0] + cell * np.arange(density.values.shape[0])
+    j, k = (int(round((10.0 - density.origin[a]) / cell)) for a in (1, 2))
+    rising = density.values[: len(x) // 2, j, k]  # increasing up to the inside
+    assert np.interp(0.5, rising, x[: len(x) // 2]) == pytest.approx(0.0, abs=SPACING / 4)
+
+
+@pytest.mark.parametrize(("cell", "ground", "particles", "layers"), [(SPACING / 4, None, (24, 20, 16), 4),
+                                                                    (2 * SPACING, 0.0, (100, 100, 40), 1)])
+def test_the_memory_estimate_bounds_what_is_allocated(cell: float, ground: float | None,
+                                                      particles: tuple[int, int, int], layers: int) -> None:
+    """Peak allocations (tracemalloc) of a grid-bound field (a fine cell, four materials) and of a
+    particle-bound one (400 000 particles of one material, the most a particle takes, on the
+    ground and a coarse cell)."""
+    points = jittered_lattice(particles, SPACING, seed=5)
+    materials = (points[:, 2] // 3.0).astype(int) % layers
+    estimate = density_bytes(points.min(axis=0), points.max(axis=0), len(points), SPACING**3, cell,
+                             ground=ground)
+    tracemalloc.start()
+    try:
+        particle_density(points, materials, SPACING**3, cell, ground=ground)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert 0.6 * estimate < peak <= estimate
+
+
+def test_a_field_above_the_memory_allowed_is_refused_before_it_is_made() -> None:
+    points = jittered_lattice((10, 12, 8), SPACING)
+    need = density_bytes(points.min(axis=0), points.max(axis=0), len(points), SPACING**3, SPACING / 2)
+    materials = np.zeros(len(points), dtype=int)
+    particle_density(points, materials, SPACING**3, SPACING / 2, max_bytes=need)
+    with pytest.raises(ValueError, match=r"GiB allowed: choose a coarser cell"):
+        particle_density(points, materials, SPACING**3, SPACING / 2, max_bytes=need - 1)
+    with pytest.raises(ValueError, match=r"coarser cell"):  # about 10¹⁰ nodes: refused, not allocated
+        particle_density(points, materials, SPACING**3, SPACING / 200)

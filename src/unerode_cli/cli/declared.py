@@ -137,7 +137,7 @@ class TerminalProgress:
         self._advance: Callable[..., None] | None = None
         self._unit = "steps"
 
-    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0) -> None:
+    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0, done: float = 0) -> None:
         from unerode_cli.cli.progress import progress_bar, simulated_time_bar
 
         self.finish()
@@ -145,7 +145,7 @@ class TerminalProgress:
         if unit == "years":
             self._bar = simulated_time_bar(float(total), label, self.verbosity)
         else:
-            self._bar = progress_bar(int(total), label, self.verbosity, cells)
+            self._bar = progress_bar(int(total), label, self.verbosity, cells, done=int(done))
         self._advance = self._bar.__enter__()
 
     def advance(self, info: str = "", done: float | None = None) -> None:

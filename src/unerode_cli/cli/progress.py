@@ -12,12 +12,13 @@ from unerode_cli.cli.common import DEBUG, DETAIL, NOTE, say
 
 
 @contextlib.contextmanager
-def progress_bar(total: int, description: str, verbosity: int,
-                 cells: int = 0) -> Iterator[Callable[[str], None]]:
-    """Yield ``advance(info)``, to be called once per completed unit of work; with ``cells``
-    (cells updated per unit) the bar and the ``-v`` lines show the rate in cells per second."""
+def progress_bar(total: int, description: str, verbosity: int, cells: int = 0,
+                 done: int = 0) -> Iterator[Callable[[str], None]]:
+    """Yield ``advance(info)``, to be called once per completed unit of work, the first being
+    unit ``done + 1`` (``done``: units of a resumed run done before); with ``cells`` (cells
+    updated per unit) the bar and the ``-v`` lines show the rate in cells per second."""
     if verbosity >= DETAIL:
-        yield _step_lines(total, description, verbosity, cells)
+        yield _step_lines(total, description, verbosity, cells, done)
         return
     if verbosity < NOTE or not sys.stderr.isatty():
         yield lambda info="": None
@@ -37,14 +38,15 @@ def progress_bar(total: int, description: str, verbosity: int,
                TimeRemainingColumn())
     pace = _CellRate(cells)
     with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
-        task = bar.add_task(description, total=total, info="", rate="")
+        task = bar.add_task(description, total=total, completed=done, info="", rate="")
         yield lambda info="": bar.update(task, advance=1, info=info, rate=pace.advance())
 
 
-def _step_lines(total: int, description: str, verbosity: int, cells: int = 0) -> Callable[[str], None]:
-    """``advance(info)`` that says ``DESCRIPTION k/N: INFO`` (with ``cells``: the rate in cells
-    per second; with ``-vv``: and the step's wall time in seconds)."""
-    done, last = 0, time.perf_counter()
+def _step_lines(total: int, description: str, verbosity: int, cells: int = 0,
+                done: int = 0) -> Callable[[str], None]:
+    """``advance(info)`` that says ``DESCRIPTION k/N: INFO``, k counting on from ``done`` (with
+    ``cells``: the rate in cells per second; with ``-vv``: and the step's wall time in seconds)."""
+    last = time.perf_counter()
     pace = _CellRate(cells)
 
     def advance(info: str = "") -> None:

@@ -1,4 +1,5 @@
-"""Checkpoints of long runs: named arrays in one ``.npz`` file, written atomically."""
+"""Checkpoints of long runs: named arrays in one ``.npz`` file, written atomically (stored, or
+zip-deflated with ``compressed``; both read alike)."""
 
 from __future__ import annotations
 
@@ -26,11 +27,12 @@ def check_checkpoint(output: Path, resume: bool, overwrite: bool, inputs: tuple[
     check_output(path, True, inputs)
 
 
-def write_checkpoint(path: Path, **arrays: object) -> None:
+def write_checkpoint(path: Path, *, compressed: bool = False, **arrays: object) -> None:
     """Save ``arrays`` (NumPy arrays, numbers or strings) to ``path`` atomically, so a crash
-    leaves the previous checkpoint whole."""
+    leaves the previous checkpoint whole; ``compressed``: zip-deflated (``np.savez_compressed``:
+    smaller and slower to write, for large particle states)."""
     with atomic_path(path) as tmp, open(tmp, "wb") as handle:
-        np.savez(handle, **arrays)
+        (np.savez_compressed if compressed else np.savez)(handle, **arrays)
 
 
 def read_checkpoint(path: Path) -> dict[str, np.ndarray]:
@@ -43,13 +45,15 @@ def read_checkpoint(path: Path) -> dict[str, np.ndarray]:
 _JSON_KEY = "state.json"
 
 
-def write_state_checkpoint(path: Path, fingerprint: str, step: int, state: dict[str, object]) -> None:
+def write_state_checkpoint(path: Path, fingerprint: str, step: int, state: dict[str, object],
+                           compressed: bool = False) -> None:
     """Save a run after ``step`` steps: its ``fingerprint``, and ``state`` — NumPy arrays as
     arrays, every other value (numbers, text, lists and mappings of them) as one JSON text,
-    whose floats keep every bit (``repr``)."""
+    whose floats keep every bit (``repr``); ``compressed`` as in :func:`write_checkpoint`."""
     arrays = {f"array.{name}": value for name, value in state.items() if isinstance(value, np.ndarray)}
     rest = {name: value for name, value in state.items() if not isinstance(value, np.ndarray)}
-    write_checkpoint(path, fingerprint=fingerprint, step=step, **{_JSON_KEY: json.dumps(rest)}, **arrays)
+    write_checkpoint(path, compressed=compressed, fingerprint=fingerprint, step=step,
+                     **{_JSON_KEY: json.dumps(rest)}, **arrays)
 
 
 def read_state_checkpoint(path: Path) -> tuple[str, int, dict[str, object]]:

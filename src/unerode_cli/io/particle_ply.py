@@ -1,7 +1,27 @@
-"""Particles as binary PLY point clouds (x y z, nx ny nz and named per-particle properties),
-the format Houdini and Blender read: little-endian, one ``vertex`` element, float32 and int32
-and uint8 properties. Positions are written relative to an origin (float32 keeps ~1e-7 of a
-coordinate: centimetres at a UTM easting would be lost), which the header's comments give."""
+"""Particles as binary PLY point clouds (x y z, nx ny nz, optional red green blue vertex colours
+and named per-particle properties), the format Houdini and Blender read: little-endian, one
+``vertex`` element, float32 and int32 and uint8 properties. Positions are written relative to an
+origin (float32 keeps ~1e-7 of a coordinate: centimetres at a UTM easting would be lost), which
+the header's comments give.
+
+What each tool reads of a particles file:
+
+- Houdini (File SOP): every vertex property, as a point attribute.
+- Blender 4.1 and later (File → Import → Stanford PLY, "Vertex Attributes" on by default): the
+  positions, normals, the colours (the ``Col`` colour attribute) and every other property as a
+  float point attribute, which Geometry Nodes and shaders read by name.
+- Blender 3.6 to 4.0: the positions, normals and colours only (and s t texture coordinates); the
+  other properties are dropped, so the colours carry what the file is coloured by. Blender's
+  older importer (before 3.6) keeps no colour of a point cloud (it stores colours on faces).
+- MeshLab and CloudCompare: positions, normals and colours (CloudCompare also reads the other
+  properties, as scalar fields).
+
+:func:`attribute_colours` turns a property into viridis colours for ``colours``.
+
+A path ending ``.npz`` gets the same columns as a compressed NumPy archive instead (one array
+per column, ``np.load(path)["x"]``; ``origin`` (3,) float64 and ``comments`` as arrays): a third
+to a half of the PLY's size, for series of snapshots read in Python.
+"""
 
 from __future__ import annotations
 
@@ -21,18 +41,31 @@ ORIGIN_COMMENT = "origin"
 def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
                        properties: dict[str, np.ndarray],
                        origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                       comments: tuple[str, ...] = ()) -> None:
-    """Write particles atomically: x y z (m, minus ``origin``) and nx ny nz as float32, then each
-    of ``properties`` (float arrays as float32, integer arrays as int32, booleans as uchar)."""
+                       comments: tuple[str, ...] = (), colours: np.ndarray | None = None) -> None:
+    """Write particles atomically: x y z (m, minus ``origin``) and nx ny nz as float32, with
+    ``colours`` ``(N, 3)`` (RGB, 0-255) red green blue as uchar, then each of ``properties``
+    (float arrays as float32, integer arrays as int32, booleans as uchar); a ``.npz`` path gets
+    the columns as a compressed NumPy archive (module docstring)."""
     columns: dict[str, np.ndarray] = {}
     for a, name in enumerate("xyz"):
         columns[name] = (positions[:, a] - origin[a]).astype("<f4")
     for a, name in enumerate(("nx", "ny", "nz")):
         columns[name] = normals[:, a].astype("<f4")
+    if colours is not None:
+        colours = np.asarray(colours)
+        if colours.shape != (len(positions), 3):
+            raise ValueError(f"colours must be ({len(positions)}, 3), got {colours.shape}")
+        for a, name in enumerate(("red", "green", "blue")):
+            columns[name] = colours[:, a].astype("u1")
     for name, values in properties.items():
         values = np.asarray(values)
         kind = "u1" if values.dtype == bool else "<i4" if np.issubdtype(values.dtype, np.integer) else "<f4"
         columns[name] = values.astype(kind)
+    if Path(path).suffix.lower() == ".npz":
+        with atomic_path(path) as tmp, open(tmp, "wb") as handle:
+            np.savez_compressed(handle, **columns, origin=np.array(origin, dtype=np.float64),
+                                comments=np.array(comments, dtype=str))
+        return
     table = np.empty(len(positions), dtype=[(name, values.dtype) for name, values in columns.items()])
     for name, values in columns.items():
         table[name] = values
@@ -46,9 +79,29 @@ def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
         handle.write(table.tobytes())
 
 
+def attribute_colours(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The colours ``(N, 3)`` (uint8 RGB) of ``values`` (N,) on matplotlib's viridis ramp,
+    ``lo`` dark blue to ``hi`` yellow (values beyond are clipped; NaN is grey, 128)."""
+    from matplotlib import colormaps
+
+    values = np.asarray(values, dtype=np.float64)
+    span = hi - lo if hi > lo else 1.0
+    share = np.clip((values - lo) / span, 0.0, 1.0)
+    table = np.round(colormaps["viridis"](np.linspace(0.0, 1.0, 256))[:, :3] * 255.0).astype(np.uint8)
+    out = table[np.round(np.nan_to_num(share) * 255.0).astype(np.int64)]
+    out[np.isnan(values)] = 128
+    return out
+
+
 def read_particle_ply(path: Path) -> tuple[dict[str, np.ndarray], tuple[float, float, float]]:
-    """The vertex properties of a binary little-endian PLY by name, and the origin its header
-    gives (0, 0, 0 when none); positions are returned as written (relative to the origin)."""
+    """The vertex properties of a binary little-endian PLY (or of a ``.npz`` written by
+    :func:`write_particle_ply`) by name, and the origin its header gives (0, 0, 0 when none);
+    positions are returned as written (relative to the origin)."""
+    if Path(path).suffix.lower() == ".npz":
+        with np.load(path, allow_pickle=False) as saved:
+            columns = {name: saved[name] for name in saved.files if name not in ("origin", "comments")}
+            origin = saved["origin"] if "origin" in saved.files else np.zeros(3)
+        return columns, (float(origin[0]), float(origin[1]), float(origin[2]))
     data = Path(path).read_bytes()
     end = data.find(b"end_header\n")
     if not data.startswith(b"ply") or end < 0:

@@ -110,11 +110,15 @@ class OutputPlan:
     def check_destinations(self, outputs: Iterable[tuple[Path, bool]]) -> None:
         """Before a job plans: refuse (InputError) what no output may be, for each output
         ``(path, is_folder)`` its options name — see :meth:`check_destination` — and two of
-        them naming one file or folder (also through a symlink or a hard link)."""
+        them naming one file or folder (also through a symlink or a hard link). A file directly
+        in an output folder that does not exist yet (``--mesh OUT_DIR/rock.obj``) is left to
+        the job, which creates the folder and clears the file (:meth:`check_output`)."""
+        outputs = [(Path(path), folder) for path, folder in outputs]
+        created = {_resolved(path) for path, folder in outputs if folder and not _exists(path)}
         seen: dict[object, Path] = {}
         for path, folder in outputs:
-            path = Path(path)
-            self.check_destination(path, folder)
+            if folder or _resolved(path.parent) not in created:
+                self.check_destination(path, folder)
             key = _identity(path) or _resolved(path)
             if key in seen:
                 same = "" if seen[key] == path else f" (as {seen[key]} and as {path})"

@@ -60,9 +60,10 @@ class Progress:
         self._cancel = cancel
         self.verbosity = verbosity
 
-    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0) -> None:
+    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0, done: float = 0) -> None:
         """A loop of ``total`` units begins (``unit``: ``steps``, or ``years`` of simulated time);
-        each step updates ``cells`` cells (0: not said)."""
+        each step updates ``cells`` cells (0: not said); ``done`` of the units were done before
+        (by the run a resumed run continues), so the first step counts as unit ``done + 1``."""
 
     def advance(self, info: str = "", done: float | None = None) -> None:
         """One more unit is done (or, with ``done``, that many units in all); ``info`` says
@@ -94,8 +95,8 @@ class StreamProgress(Progress):
         super().__init__(cancel, verbosity)
         self._label, self._total, self._done = "", 0.0, 0
 
-    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0) -> None:
-        self._label, self._total, self._done = label, total, 0
+    def start(self, total: float, label: str, unit: str = "steps", cells: int = 0, done: float = 0) -> None:
+        self._label, self._total, self._done = label, total, int(done)
 
     def advance(self, info: str = "", done: float | None = None) -> None:
         self._done += 1

@@ -8,8 +8,9 @@ step — and the loop does the rest, the same way for every job:
   options and version), the stepper's state is restored and the loop goes on after the
   checkpoint's step, so that the result is bit for bit that of a run never stopped. A checkpoint
   of another run is refused (InputError); none at all starts from the beginning with a note.
-- **Progress.** ``progress.start`` once, ``progress.advance`` after each step with what the step
-  reports (its info text, and for runs counted in years the simulated years done).
+- **Progress.** ``progress.start`` once (a resumed run's with the steps done before, so that it
+  counts on: step 41 of 80), ``progress.advance`` after each step with what the step reports
+  (its info text, and for runs counted in years the simulated years done).
 - **Stop.** After ``max_steps`` steps of this invocation, or when ``progress.cancelled()`` says so,
   the loop writes a checkpoint and returns normally with ``finished`` False.
 - **Checkpoints.** Every ``every`` steps, and at a stop, the stepper's state is saved atomically
@@ -59,12 +60,14 @@ class Stepper(Protocol):
 @dataclass(frozen=True)
 class Checkpoints:
     """Where and how often a run is checkpointed: ``path`` (None: never), every ``every``
-    steps, continued when ``resume``; ``fingerprint`` names the run."""
+    steps, continued when ``resume``; ``fingerprint`` names the run; ``compressed``: the
+    checkpoint is zip-deflated (large particle states)."""
 
     path: Path | None
     every: int = 10
     resume: bool = False
     fingerprint: str = ""
+    compressed: bool = False
 
 
 @dataclass(frozen=True)
@@ -111,7 +114,7 @@ def step_through(stepper: Stepper, steps: int | None, progress: Progress, label:
     if years is None:
         if steps is None:
             raise ValueError("a run whose number of steps is not known counts its progress in years")
-        progress.start(steps - first, label, cells=cells)
+        progress.start(steps, label, cells=cells, done=first)
     else:
         progress.start(years, label, unit="years")
     k = first
@@ -122,7 +125,8 @@ def step_through(stepper: Stepper, steps: int | None, progress: Progress, label:
         ended = report.last or k >= end
         stop = not ended and (k == last or progress.cancelled())
         if checkpoints.path is not None and (k % checkpoints.every == 0 or stop):
-            write_state_checkpoint(checkpoints.path, checkpoints.fingerprint, k, stepper.state())
+            write_state_checkpoint(checkpoints.path, checkpoints.fingerprint, k, stepper.state(),
+                                   checkpoints.compressed)
         if ended or stop:
             return Stepped(k, first, ended)
     return Stepped(k, first, k >= end)

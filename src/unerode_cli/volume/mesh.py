@@ -60,6 +60,14 @@ class Mesh:
                    np.zeros((0, 3), dtype=np.uint8))
 
 
+def linear_colours(colours: np.ndarray) -> np.ndarray:
+    """sRGB colours uint8 (..., 3) as the linear RGB in [0, 1] that material colours are given in
+    (glTF's baseColorFactor, an MTL's Kd as Blender reads it): the sRGB transfer function inverted
+    (IEC 61966-2-1), float64."""
+    c = np.asarray(colours, dtype=np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
 def material_colours(materials: np.ndarray) -> np.ndarray:
     """The :data:`PALETTE` colour (uint8 RGB) of each material index (≥ 0)."""
     return PALETTE[np.asarray(materials) % len(PALETTE)]

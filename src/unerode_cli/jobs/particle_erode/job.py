@@ -48,6 +48,7 @@ import numpy as np
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path
+from unerode_cli.io.mesh_files import mesh_sidecars
 from unerode_cli.io.particle_kinds import KindSpec
 from unerode_cli.io.paths import OutputPlan, check_output
 from unerode_cli.io.rasters import read_terrain
@@ -150,6 +151,7 @@ def _clear_outputs(job: ParticleJob, inputs: tuple[Path, ...]) -> tuple[Outputs,
     rasters = [p for p in (job.change_map, layers_out) if p is not None]
     pngs = [writing.change_preview_path(job.change_map)] if job.change_map and outputs.preview else []
     files = [p for p in (job.paths, job.volume_out, job.mesh) if p is not None]
+    files += list(mesh_sidecars(job.mesh)) if job.mesh is not None else []
     extra = [*rasters, *pngs, *files]
     if len(set(map(Path.resolve, [outputs.path, *extra]))) != len(extra) + 1:
         raise InputError("two outputs have the same path.")

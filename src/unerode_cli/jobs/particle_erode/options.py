@@ -117,8 +117,9 @@ _VOXELS = (
     Opt("volume_out", Path, None, "Voxels: write the altered volume (.npz, the --voxels format).",
         role="output", panel=VOXELS, record=False),
     Opt("mesh", Path, None,
-        "Voxels: write the closed surface mesh of the altered ground (.ply or .obj, m from "
-        "its origin comment, coloured by material; needs scikit-image).", role="output", panel=VOXELS,
+        "Voxels: write the closed surface mesh of the altered ground (.glb, .obj with its .mtl, or "
+        ".ply; m from its origin, materials by layer; Y-up in .glb and .obj; needs scikit-image, and "
+        "trimesh for .glb).", role="output", panel=VOXELS,
         record=False),
     Opt("memory_budget", float, DEFAULT_MEMORY_BUDGET_GIB,
         "Voxels: refuse a volume whose run would need more "

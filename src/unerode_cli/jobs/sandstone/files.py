@@ -27,10 +27,11 @@ from unerode_cli.jobs.sandstone.source import Source
 from unerode_cli.sandstone.particles import Particles
 from unerode_cli.sandstone.sampling import top_surface
 from unerode_cli.sandstone.simulation import STAGES, FrameStats, Simulation
-from unerode_cli.sandstone.surface import surface_particles
+from unerode_cli.sandstone.surface import near_changes, normals, surface_particles
 from unerode_cli.viz.particles_preview import save_particles_preview
-from unerode_cli.volume.mesh import enclosed_volume
+from unerode_cli.volume.mesh import enclosed_volume, material_colours
 from unerode_cli.volume.particle_surface import particle_mesh
+from unerode_cli.volume.vertex_attributes import vertex_values
 
 COMMAND = "sandstone"
 FRAME_COLUMNS = ["frame", "particles", "eroded", "deposited", "exported", "surface", "interlocked_share",
@@ -56,12 +57,25 @@ def write_particles(path: Path, prepared: PreparedSandstone, simulation: Simulat
     erodibility E (1/y, 002 Eq. 2), layer, surface, deposit, interlocked, vegetation."""
     p = simulation.particles
     rate = np.where(p.interlocked, simulation.k_s[p.layer], simulation.k_w[p.layer]) * p.erodibility
-    write_particle_ply(path, p.positions, p.normals, {
+    surface, normal = final_surface(simulation)
+    write_particle_ply(path, p.positions, normal, {
         "viability": p.viability, "stress": p.stress / 1e6, "erodibility": rate, "layer": p.layer,
-        "surface": surface_particles(p.positions, simulation.surface_grid), "deposit": p.deposit,
-        "interlocked": p.interlocked, "vegetation": p.vegetation,
-    }, comments=(f"unerode-cli {COMMAND}: {prepared.source.description}, frame {simulation.frame}",
-                 "stress: -tr(sigma) in MPa (compression positive); erodibility: E in 1/y (002 Eq. 2)"))
+        "surface": surface, "deposit": p.deposit, "interlocked": p.interlocked, "vegetation": p.vegetation,
+    }, colours=material_colours(p.layer),
+        comments=(f"unerode-cli {COMMAND}: {prepared.source.description}, frame {simulation.frame}",
+                  "stress: -tr(sigma) in MPa (compression positive); erodibility: E in 1/y (002 Eq. 2)",
+                  "red green blue: the layer's colour, as in preview.png and the --mesh"))
+
+
+def final_surface(simulation: Simulation) -> tuple[np.ndarray, np.ndarray]:
+    """The surface flags ``(N,)`` and unit outward normals ``(N, 3)`` (zeros off the surface) of
+    the particles as the last frame left them: its erosion and deposition changed the surface
+    that its normals were computed on (002 Alg. 1 computes them before eroding), so the normals
+    are recomputed near its changes, as the next frame's will be; the simulation is unchanged."""
+    p, grid = simulation.particles, simulation.surface_grid
+    surface = surface_particles(p.positions, grid)
+    return surface, normals(p.positions, surface, grid, simulation.params.neighbours, previous=p.normals,
+                            recompute=near_changes(p.positions, simulation.changes, grid))
 
 
 def write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: list[dict[str, Any]],
@@ -102,26 +116,45 @@ def write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: lis
 
 
 def _mesh(prepared: PreparedSandstone, simulation: Simulation) -> dict[str, Any]:
-    """Write the surface mesh of the final particles (each a lattice cell of rock, on the
-    domain's floor as the ground); its vertex and face counts, enclosed volume (m³) and time. For
-    an extruded DEM whose CRS is in metres, the header gives its south-west corner as the origin."""
+    """Write ``--mesh`` (the final particles' surface); its counts, enclosed volume (m³) and time."""
+    return write_particle_mesh(prepared.paths["mesh"], prepared, simulation)
+
+
+def material_names(prepared: PreparedSandstone) -> list[str]:
+    """The mesh's material name of each layer index: the layer's name, else ``layer_<i>``; the
+    deposit layer (the last) is ``deposits``."""
+    layers = prepared.source.layers
+    return [layer.name or f"layer_{i}" for i, layer in enumerate(layers.layers)] + ["deposits"]
+
+
+def write_particle_mesh(path: Path, prepared: PreparedSandstone, simulation: Simulation) -> dict[str, Any]:
+    """Write the surface mesh of the particles at ``path`` (.glb, .obj with its .mtl, or .ply;
+    ``--up`` axes; one material per layer; per-vertex stress (MPa), viability and layer of the
+    nearest particle), meshed at ``--mesh-cell`` (m, default the particle spacing) on the
+    domain's floor as the ground. For an extruded DEM whose CRS is in metres, the file's origin
+    is the DEM's south-west corner. Returns its vertex and face counts, enclosed volume (m³) and
+    the seconds it took."""
     job, source = prepared.job, prepared.source
     start = time.perf_counter()
     p, lattice = simulation.particles, source.lattice
-    mesh = particle_mesh(p.positions, p.layer, lattice.spacing**3, lattice.spacing, job.mesh_smoothing,
+    cell = job.mesh_cell if job.mesh_cell is not None else lattice.spacing
+    mesh = particle_mesh(p.positions, p.layer, lattice.spacing**3, cell, job.mesh_smoothing,
                          ground=lattice.low[2])
+    values = {"stress": p.stress / 1e6, "viability": p.viability, "layer": p.layer}
+    attributes = vertex_values(mesh.vertices, p.positions, values) if len(p) else {}
     origin, crs_wkt = (0.0, 0.0, 0.0), None
     dem = source.dem
     if dem is not None and math.isclose(dem.transform.a, dem.dx) and math.isclose(-dem.transform.e, dem.dy):
         west, south = dem.transform * (0, dem.shape[0])
         origin, crs_wkt = (west, south, 0.0), dem.crs_wkt or None
-    write_mesh(prepared.paths["mesh"], mesh, overwrite=True, origin=origin, crs_wkt=crs_wkt,
+    write_mesh(path, mesh, overwrite=True, origin=origin, crs_wkt=crs_wkt, up=job.up,
+               material_names=material_names(prepared), attributes=attributes,
                comments=(f"unerode-cli {COMMAND}: {source.description}, frame {simulation.frame}",
-                         "vertex colour: the layer's, as in preview.png; material: the layer (bottom = 0, "
-                         "the last is deposits)"))
-    return {"file": str(job.mesh), "vertices": len(mesh.vertices), "faces": len(mesh.faces),
+                         "material: the layer (bottom = 0, the last is deposits); stress: -tr(sigma) in MPa"))
+    return {"file": str(path), "vertices": len(mesh.vertices), "faces": len(mesh.faces),
             "enclosed_volume_m3": enclosed_volume(mesh), "particle_volume_m3": len(p) * lattice.spacing**3,
-            "smoothing_iterations": job.mesh_smoothing, "seconds": time.perf_counter() - start}
+            "cell_m": cell, "smoothing_iterations": job.mesh_smoothing, "up": job.up,
+            "seconds": time.perf_counter() - start}
 
 
 def _top(source: Source, particles: Particles) -> Terrain:

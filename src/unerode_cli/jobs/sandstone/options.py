@@ -38,7 +38,13 @@ PROCESSES = "Processes and wind"
 OUTPUTS = "Outputs"
 
 COLOR_BY = ("layer", "stress", "viability")
+#: Up axes of the mesh files (``io.mesh_files.UP_AXES``, which imports numpy: written out here).
+UP_AXES = ("y", "z")
+#: The presets of ``sandstone.presets.PRESETS`` (named here: that module loads the scene parser,
+#: which ``--help`` need not; a test keeps the two equal).
+PRESET_NAMES = ("arch", "hoodoo", "arcade", "alcove", "butte", "canyon", "cave")
 TOP_FORMATS = ("tif", "exr")
+SNAPSHOT_FORMATS = ("ply", "npz")
 #: The ablations of 002 §8.4: field of the flag → process it turns off.
 ABLATIONS = {"no_abrasion": "abrasion", "no_deflation": "deflation", "no_deposition": "deposition",
              "no_stress": "stress", "no_fluvial": "fluvial"}
@@ -49,8 +55,8 @@ def _ablation(name: str, help: str) -> Opt:
 
 
 OPTIONS = (
-    Opt("scene", str, help="A scene YAML file, a preset (arch, hoodoo), or a DEM (.tif, .exr, any GDAL "
-        "raster; needs --extrude).", argument=True, required=True, record=False),
+    Opt("scene", str, help=f"A scene YAML file, a preset ({', '.join(PRESET_NAMES)}), or a DEM (.tif, .exr, "
+        "any GDAL raster; needs --extrude).", argument=True, required=True, record=False),
     Opt("out_dir", Path, help="Output folder (created): particles.ply, top.tif|exr, preview.png, frames.csv, "
         "run.json.", argument=True, required=True, role="output", record=False),
     Opt("extrude", float, None, "With a DEM: the rock fills each column from this altitude BASE_M (m) up to "
@@ -106,9 +112,23 @@ OPTIONS = (
     Opt("snapshot_every", int, 0, "Write the particles (snapshots/frame_NNNNN.ply) every this many frames, "
         "and keep the run's final state (state.npz; also when a --resume finishes it), so that --resume "
         "with more --frames extends it; 0: never.", minimum=0, panel=OUTPUTS, record=False),
-    Opt("mesh", Path, None, "Also write the closed surface mesh of the final particles, coloured by layer: "
-        "OUT.ply (binary) or OUT.obj (with vertex colours); needs scikit-image: pip install "
+    Opt("snapshot_format", str, "ply", "Format of the snapshots: ply (binary, as particles.ply: for Houdini, "
+        "Blender, MeshLab) or npz (the same columns as a compressed NumPy archive, frame_NNNNN.npz: about a "
+        "third of the size, for Python).", choices=SNAPSHOT_FORMATS, panel=OUTPUTS, record=False),
+    Opt("mesh", Path, None, "Also write the closed surface mesh of the final particles, one material per "
+        "layer, UVs by box projection: OUT.glb (glTF 2.0, per-vertex _STRESS, _VIABILITY, _LAYER), "
+        "OUT.obj (with OUT.mtl) or OUT.ply; needs scikit-image (and trimesh for .glb): pip install "
         "'unerode-cli[mesh]'.", role="output", panel=OUTPUTS, record=False),
+    Opt("mesh_cell", float, None, "Node spacing of the --mesh surface (m; default: the particle spacing): "
+        "smaller for finer meshes, larger for lighter ones. Sheets and rods one particle thick are kept at "
+        "least a particle (or a cell, when coarser) thick.",
+        parser=Number("m", 0.0, above=True), panel=OUTPUTS, record=False),
+    Opt("mesh_every", int, 0, "Also write the mesh of every this many frames, OUT_DIR/meshes/frame_NNNNN "
+        "with --mesh's extension (.glb without --mesh), for animations; 0: never.", minimum=0,
+        panel=OUTPUTS, record=False),
+    Opt("up", str, "y", "Up axis of .glb and .obj meshes: y (what Blender, Houdini, Unreal and Godot import "
+        "upright; x east, y up, z south) or z (the particles' x east, y north, z up). PLY is always z-up.",
+        choices=UP_AXES, panel=OUTPUTS, record=False),
     Opt("mesh_smoothing", int, 5, "Taubin smoothing iterations of --mesh (they keep the volume; 0: the raw "
         "marching cubes).", minimum=0, panel=OUTPUTS, record=False),
     dataclasses.replace(CHECKPOINT_EVERY, help="Write the run's state (OUT_DIR/state.npz, the checkpoint) "

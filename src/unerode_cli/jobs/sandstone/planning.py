@@ -13,9 +13,16 @@ from typing import TYPE_CHECKING, Any
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.checkpoints import read_checkpoint_header
-from unerode_cli.io.mesh_files import mesh_format
 from unerode_cli.io.paths import OutputPlan
-from unerode_cli.jobs.sandstone.options import ABLATIONS, COLOR_BY, DEFAULT_DT, DEFAULT_FRAMES, TOP_FORMATS
+from unerode_cli.jobs.sandstone import meshes
+from unerode_cli.jobs.sandstone.options import (
+    ABLATIONS,
+    COLOR_BY,
+    DEFAULT_DT,
+    DEFAULT_FRAMES,
+    SNAPSHOT_FORMATS,
+    TOP_FORMATS,
+)
 from unerode_cli.jobs.sandstone.source import Source
 from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.stepping import Checkpoints
@@ -25,7 +32,6 @@ from unerode_cli.sandstone.fluvial import FluvialParams
 from unerode_cli.sandstone.mpm import MpmParams
 from unerode_cli.sandstone.simulation import Processes, SimulationParams
 from unerode_cli.sandstone.wind import WindParams
-from unerode_cli.volume.mesh import MeshExtraMissing, marching_cubes_function
 
 if TYPE_CHECKING:
     from unerode_cli.jobs.sandstone.job import SandstoneJob
@@ -62,7 +68,8 @@ def check_options(job: SandstoneJob) -> None:
                                ("--snapshot-every", job.snapshot_every, 0),
                                ("--checkpoint-every", job.checkpoint_every, 1),
                                ("--max-steps", job.max_steps, 1),
-                               ("--mesh-smoothing", job.mesh_smoothing, 0)):
+                               ("--mesh-smoothing", job.mesh_smoothing, 0),
+                               ("--mesh-every", job.mesh_every, 0)):
         if value is not None and value < low:
             raise InputError(f"{option} must be at least {low}, got {value}.")
     if job.dt is not None and not (math.isfinite(job.dt) and job.dt > 0):
@@ -73,12 +80,9 @@ def check_options(job: SandstoneJob) -> None:
         raise InputError(f"--color-by must be one of {', '.join(COLOR_BY)}, got '{job.color_by}'.")
     if job.top_format not in TOP_FORMATS:
         raise InputError(f"--top-format must be tif or exr, got '{job.top_format}'.")
-    if job.mesh is not None:
-        try:
-            mesh_format(job.mesh)
-            marching_cubes_function()
-        except (ValueError, MeshExtraMissing) as exc:
-            raise InputError(f"--mesh: {exc}.") from None
+    if job.snapshot_format not in SNAPSHOT_FORMATS:
+        raise InputError(f"--snapshot-format must be ply or npz, got '{job.snapshot_format}'.")
+    meshes.check_mesh_options(job)
     if job.resume and job.overwrite:
         raise InputError("--resume continues OUT_DIR's run and --overwrite starts it afresh: "
                          "give one of them.")
@@ -94,8 +98,8 @@ def with_run_settings(job: SandstoneJob, source: Source) -> SandstoneJob:
 
 
 def output_paths(job: SandstoneJob) -> dict[str, Path]:
-    """The files of OUT_DIR (and ``--mesh``), refused when one exists (without --overwrite or
-    --resume); nothing is created."""
+    """The files of OUT_DIR (and ``--mesh``, whose folder exists or is OUT_DIR), refused when one
+    exists (without --overwrite or --resume); nothing is created."""
     out = job.out_dir
     if out.exists() and not out.is_dir():
         raise InputError(f"OUT_DIR {out} is a file, not a folder.")
@@ -105,20 +109,25 @@ def output_paths(job: SandstoneJob) -> dict[str, Path]:
              "preview": out / PREVIEW_FILE, "frames": out / FRAMES_FILE, "run": out / RUN_FILE,
              "state": out / STATE_FILE}
     if job.mesh is not None:
-        if not job.mesh.parent.exists():
+        if not (job.mesh.parent.exists() or mesh_in_out_dir(job)):
             raise InputError(f"the folder of --mesh {job.mesh} does not exist.")
-        paths["mesh"] = job.mesh
+        paths.update(meshes.final_mesh_paths(job))
     if not (job.overwrite or job.resume):
-        for path in [*paths.values(), out / SNAPSHOTS]:
+        for path in [*paths.values(), out / SNAPSHOTS, out / meshes.MESHES]:
             if path.exists():
                 raise InputError(f"output {path} already exists; pass --overwrite to replace it "
                                  "(or --resume to continue its run).")
     return paths
 
 
+def mesh_in_out_dir(job: SandstoneJob) -> bool:
+    """Whether ``--mesh`` names a file directly in OUT_DIR (which the job creates)."""
+    return job.mesh is not None and job.mesh.parent.resolve() == job.out_dir.resolve()
+
+
 def snapshot_path(job: SandstoneJob, frame: int) -> Path:
-    """The particles of ``frame`` written with ``--snapshot-every``."""
-    return job.out_dir / SNAPSHOTS / f"frame_{frame:05d}.ply"
+    """The particles of ``frame`` written with ``--snapshot-every``, in ``--snapshot-format``."""
+    return job.out_dir / SNAPSHOTS / f"frame_{frame:05d}.{job.snapshot_format}"
 
 
 def clear_outputs(job: SandstoneJob, paths: dict[str, Path], outputs: OutputPlan) -> None:
@@ -128,10 +137,12 @@ def clear_outputs(job: SandstoneJob, paths: dict[str, Path], outputs: OutputPlan
     job.out_dir.mkdir(exist_ok=True)
     if job.snapshot_every:
         (job.out_dir / SNAPSHOTS).mkdir(exist_ok=True)
+    if job.mesh_every:
+        (job.out_dir / meshes.MESHES).mkdir(exist_ok=True)
     every = job.snapshot_every
     snapshots = [snapshot_path(job, frame) for frame in range(every, job.frames + 1, every)] if every else []
-    for path in [*paths.values(), *snapshots]:
-        outputs.check_output(path, True, again=path == job.mesh)   # the mesh was cleared first, in plan()
+    for path in [*paths.values(), *snapshots, *meshes.frame_mesh_paths(job)]:
+        outputs.check_output(path, True, again=path == job.mesh)   # plan() may have cleared the mesh
 
 
 def simulation_params(job: SandstoneJob, source: Source) -> SimulationParams:
@@ -185,12 +196,12 @@ def provenance(job: SandstoneJob, source: Source, params: SimulationParams) -> d
 
 def checkpoints(job: SandstoneJob, paths: dict[str, Path], scene_file: Path | None,
                 provenance: dict[str, Any]) -> Checkpoints:
-    """The run's checkpoints: ``state.npz`` in OUT_DIR, every ``--checkpoint-every`` frames, named
-    by the fingerprint of everything but the frame count (so that --resume may ask for more
-    frames) and of the scene or DEM file's contents."""
+    """The run's checkpoints: ``state.npz`` in OUT_DIR (compressed), every ``--checkpoint-every``
+    frames, named by the fingerprint of everything but the frame count (so that --resume may ask
+    for more frames) and of the scene or DEM file's contents."""
     fields = {k: v for k, v in provenance.items() if k != "frames"}
     return Checkpoints(paths["state"], job.checkpoint_every, job.resume,
-                       run_fingerprint(fields, [scene_file]))
+                       run_fingerprint(fields, [scene_file]), compressed=True)
 
 
 def check_resume(job: SandstoneJob, checkpoints: Checkpoints) -> None:
