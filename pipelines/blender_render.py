@@ -67,7 +67,7 @@ def stage(low: Vector, high: Vector, out: str) -> None:
     azimuth, elevation = math.radians(200.0), math.radians(25.0)
     direction = Vector((math.sin(azimuth) * math.cos(elevation), math.cos(azimuth) * math.cos(elevation),
                         math.sin(elevation)))
-    bpy.ops.object.camera_add(location=centre + direction * size * 1.25)
+    bpy.ops.object.camera_add(location=centre + direction * size * 1.7)
     camera = bpy.context.active_object
     camera.rotation_euler = (centre - camera.location).to_track_quat("-Z", "Y").to_euler()
     bpy.context.scene.camera = camera

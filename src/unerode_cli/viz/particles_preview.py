@@ -22,10 +22,13 @@ from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize  # noqa: E
 #: Where the camera looks from: azimuth (degrees clockwise from north) and elevation (degrees).
 VIEW_AZIMUTH = 200.0
 VIEW_ELEVATION = 25.0
-#: Light from the north-west and above (a unit vector towards the light, x east, y north, z up).
-LIGHT = np.array([-0.5, 0.5, 0.7]) / math.sqrt(0.99)
+#: Light from azimuth 240° (west-south-west, on the camera's side) and 45° above the horizon, so
+#: the faces the camera sees are lit unequally (a unit vector towards the light, x east, y north,
+#: z up).
+LIGHT = np.array([math.sin(math.radians(240.0)) * math.sqrt(0.5), math.cos(math.radians(240.0)) * math.sqrt(0.5),
+                  math.sqrt(0.5)])
 #: Radius of a particle's disc, in particle spacings.
-DISC_RADIUS = 0.6
+DISC_RADIUS = 0.75
 
 
 @dataclass(frozen=True)
