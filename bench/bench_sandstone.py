@@ -1,17 +1,26 @@
-"""Sandstone (002) benchmarks: one MLS-MPM substep and one whole frame at 002 §8.3's scale (1 M
-particles, 128³ grid) on 2 threads, a substep on 1 thread, the README example (the ``arch``
-preset at 50 000 particles, 100 frames, through the command line, start-up included), the
-surface and transport stages of ``sandstone_stages`` (about 0.9 M particles, 2 threads), and
+"""Sandstone (002) benchmarks: the MLS-MPM stress solver at 002 §8.3's scale (1 M particles, 128³
+grid) as a run pays it, against a plain single-thread MLS-MPM sketch (``mpm_reference``) on the
+same particles; a first frame and a later frame at 1 M particles; the README example (the
+``arch`` preset at 50 000 particles, 100 frames, through the command line, start-up included),
+the surface and transport stages of ``sandstone_stages`` (about 0.9 M particles, 2 threads), and
 002 §8.3's "3D flow routing (fluvial erosion + deposition)" on the block: water receivers,
 depression routing, discharge, the fluvial rate and the deposition of 2000 eroded particles.
 
 The block: 128 × 128 × 61 particles of spacing 0.5 m (1 M, 8 per MPM cell of 1 m) standing in
-a 128 m cubic domain, the MPM grid 128³. The frame runs 10 substeps (no early stop), the
-normals, the wind and the deposition; it is timed after a first frame (the settling).
+a 128 m cubic domain, the MPM grid 128³. A *substep as a run pays it* is a later frame's stress
+relaxation (``StressSolver.relax`` with the default ``MpmParams``, as ``Simulation`` calls it:
+sorting, the substeps, and the smoothed stress) divided by the substeps it ran, on the settled
+block, with no early stop (a frame's 10 substeps: an early stop after one substep would charge
+it the whole frame's sorting and smoothing); the case prints the final residual. The sketch
+runs its substep on the same (lithostatic) state on one thread. The first frame is
+``Simulation.step`` from the sampled block (lithostatic guess, then the settling up to
+``settle_substeps``), timed once; the later frame is a whole ``Simulation.step`` after it
+(default parameters). The cases print the substeps and residuals they ran.
 """
 
 from __future__ import annotations
 
+import functools
 import shutil
 import subprocess
 import sys
@@ -22,7 +31,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from harness import Timed, benchmark
+from harness import Timed, benchmark, ratio
+from mpm_reference import Reference
 from sandstone_stages import (
     deflation_case,
     deposition_case,
@@ -31,8 +41,8 @@ from sandstone_stages import (
     surface_case,
     wind_case,
 )
-from unerode_cli.sandstone.layers import Layer, LayerStack, Rock
-from unerode_cli.sandstone.mpm import MpmParams, StressSolver
+from unerode_cli.sandstone.layers import GRAVITY, Layer, LayerStack, Rock
+from unerode_cli.sandstone.mpm import MpmParams, StressSolver, lithostatic_guess
 from unerode_cli.sandstone.particles import Particles
 from unerode_cli.sandstone.sampling import Lattice, sample
 from unerode_cli.sandstone.scene import Box
@@ -53,28 +63,76 @@ def _block() -> tuple[Particles, Lattice]:
     return Particles.new(positions, np.zeros(len(positions))), lattice
 
 
-def _substep(threads: int):
+@functools.cache
+def _settled_solver() -> tuple[StressSolver, Particles]:
+    """The block after its first frame's relaxation (2 threads): the state later frames start from
+    (shared by the substep cases)."""
     particles, lattice = _block()
-    solver = StressSolver(lattice.mpm_grid(), Rock(), SPACING**3)
-    order, starts = solver._sorted(particles.positions)
+    solver = StressSolver(lattice.mpm_grid(), Rock(), SPACING**3, MpmParams())
+    lithostatic_guess(particles, lattice.surface_grid(), Rock(), SPACING)
+    _threads(2)
+    solver.relax(particles, MpmParams().settle_substeps)
+    solver.params = MpmParams(tolerance=0.0)
+    return solver, particles
 
-    def work() -> float:
+
+def _substep(threads: int):
+    solver, particles = _settled_solver()
+
+    def work() -> Timed:
         _threads(threads)
-        return solver.substep(particles, order, starts, 0.01)
+        start = time.perf_counter()
+        relaxation = solver.relax(particles, MpmParams().substeps)
+        seconds = time.perf_counter() - start
+        print(f"    {threads} thread(s): {relaxation.substeps} substeps, residual {relaxation.residual:.3g}")
+        return Timed(seconds / max(relaxation.substeps, 1))
 
     return work, len(particles), "particles"
 
 
-def _frame():
+def _reference():
     particles, lattice = _block()
-    params = SimulationParams(mpm=MpmParams(substeps=10, settle_substeps=10, tolerance=0.0))
-    simulation = Simulation(particles, LayerStack((Layer(),)), Rock(), lattice, params)
+    grid, rock = lattice.mpm_grid(), Rock()
+    lithostatic_guess(particles, lattice.surface_grid(), rock, SPACING)
+    solver = StressSolver(grid, rock, SPACING**3)
+    sketch = Reference(particles.positions, particles.deformation, grid.shape, grid.h, solver.origin,
+                       solver.mass, solver.volume, rock.shear_modulus, rock.lame_lambda, solver.dt)
+
+    def work() -> None:
+        _threads(1)
+        sketch.substep(GRAVITY, 0.01)
+
+    return work, len(particles), "particles"
+
+
+def _simulation() -> Simulation:
+    particles, lattice = _block()
+    return Simulation(particles, LayerStack((Layer(),)), Rock(), lattice, SimulationParams())
+
+
+def _first_frame():
+    def work() -> Timed:
+        simulation = _simulation()
+        _threads(2)
+        start = time.perf_counter()
+        stats = simulation.step()
+        seconds = time.perf_counter() - start
+        print(f"    first frame: {stats.mpm_substeps} substeps, residual {stats.mpm_residual:.3g}, stages "
+              + ", ".join(f"{k} {v:.2f} s" for k, v in stats.seconds.items()))
+        return Timed(seconds)
+
+    return work, 1, "frames"
+
+
+def _frame():
+    simulation = _simulation()
     _threads(2)
     simulation.step()
 
     def work() -> None:
         _threads(2)
-        simulation.step()
+        stats = simulation.step()
+        print(f"    frame: {stats.mpm_substeps} substeps, residual {stats.mpm_residual:.3g}")
 
     return work, len(simulation.particles), "particles"
 
@@ -92,9 +150,16 @@ def _readme():
     return work, 100, "frames"
 
 
-benchmark("sandstone/mpm substep 1M particles 128³ 1 thread")(lambda: _substep(1))
-benchmark("sandstone/mpm substep 1M particles 128³ 2 threads")(lambda: _substep(2))
-benchmark("sandstone/frame 1M particles 128³ 10 substeps 2 threads")(_frame)
+SUBSTEP_1 = "sandstone/mpm substep as a frame pays it 1M particles 128³ 1 thread"
+SUBSTEP_2 = "sandstone/mpm substep as a frame pays it 1M particles 128³ 2 threads"
+SKETCH = "sandstone/mpm reference sketch substep 1M particles 128³ 1 thread"
+benchmark(SUBSTEP_1)(lambda: _substep(1))
+benchmark(SUBSTEP_2)(lambda: _substep(2))
+benchmark(SKETCH)(_reference)
+ratio("sandstone mpm substep 2 threads / reference sketch 1 thread", SUBSTEP_2, SKETCH)
+ratio("sandstone mpm substep 1 thread / 2 threads (speed-up)", SUBSTEP_1, SUBSTEP_2)
+benchmark("sandstone/first frame 1M particles 128³ 2 threads", whole_run=True)(_first_frame)
+benchmark("sandstone/frame 1M particles 128³ 2 threads")(_frame)
 benchmark("sandstone/readme arch 50k particles 100 frames", whole_run=True)(_readme)
 benchmark("sandstone/stage surface particles 0.9M particles 2 threads")(surface_case)
 benchmark("sandstone/stage normals all 0.9M particles 2 threads")(normals_case)

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
+from scipy.linalg import polar
 
+from unerode_cli.sandstone import mpm
 from unerode_cli.sandstone.layers import GRAVITY, Rock
 from unerode_cli.sandstone.mpm import MpmParams, StressSolver, lithostatic_guess
-from unerode_cli.sandstone.mpm_kernels import cauchy_stress
+from unerode_cli.sandstone.mpm_kernels import SERIES_LIMIT, cauchy_stress
 from unerode_cli.sandstone.particles import Particles
 from unerode_cli.sandstone.sampling import Lattice, sample
 from unerode_cli.sandstone.scene import parse_scene
@@ -42,6 +45,41 @@ def test_corotated_stress_is_hookes_law_for_small_strains() -> None:
     c, s = np.cos(0.3), np.sin(0.3)
     rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     assert np.abs(cauchy_stress(rotation[None], ROCK.shear_modulus, ROCK.lame_lambda)).max() < 1e-3
+
+
+@pytest.mark.parametrize("strain", [1e-6, 1e-4, 0.3 * SERIES_LIMIT, 3.0 * SERIES_LIMIT, 0.2])
+def test_corotated_stress_matches_scipys_polar_decomposition(strain: float) -> None:
+    """σ = (2μ(F − R)Fᵀ + λJ(J − 1)I)/J with R from scipy's polar decomposition, on rotated and
+    strained F, on both sides of the series' limit (relative 1e-8 of the largest entry)."""
+    rng = np.random.default_rng(7)
+    c, s = np.cos(0.7), np.sin(0.7)
+    rotation = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    deformation = rotation @ (np.eye(3) + strain * rng.uniform(-1.0, 1.0, (20, 3, 3)))
+    sigma = cauchy_stress(deformation, ROCK.shear_modulus, ROCK.lame_lambda)
+    for f, got in zip(deformation, sigma, strict=True):
+        r, _ = polar(f)
+        j = np.linalg.det(f)
+        tau = 2.0 * ROCK.shear_modulus * (f - r) @ f.T + ROCK.lame_lambda * j * (j - 1.0) * np.eye(3)
+        np.testing.assert_allclose(got, tau / j, rtol=0.0, atol=1e-8 * np.abs(tau).max())
+
+
+def test_relaxation_is_the_same_on_one_and_two_threads(threads, monkeypatch) -> None:
+    """Bit for bit: the race-free scatter and the fixed chunks do not depend on the threads."""
+    monkeypatch.setattr(mpm, "SERIAL_BELOW", 0)
+    shape, size = {"box": {"min": [2, 2, 0], "max": [14, 10, 8]}}, (16.0, 12.0, 12.0)
+    results = []
+    for count in (1, 2):
+        numba.set_num_threads(min(count, numba.config.NUMBA_NUM_THREADS))
+        lattice = Lattice((0.0, 0.0, 0.0), size, SPACING)
+        solid = parse_scene({"domain": {"size": list(size)}, "shape": shape}).shape
+        particles = Particles.new(sample(solid, lattice, seed=3), np.zeros(0))
+        lithostatic_guess(particles, lattice.surface_grid(), ROCK, SPACING)
+        relaxation = StressSolver(lattice.mpm_grid(), ROCK, SPACING**3, MpmParams()).relax(particles, 60)
+        results.append((relaxation, particles))
+    (first, a), (second, b) = results
+    assert first == second
+    for name in ("positions", "velocity", "affine", "deformation", "stress"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
 def test_free_standing_column_carries_its_weight() -> None:

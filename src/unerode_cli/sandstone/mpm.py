@@ -82,19 +82,27 @@ class Relaxation:
 
 
 class StressSolver:
-    """MLS-MPM on ``grid`` for particles of volume ``particle_volume`` (m³) of ``rock``."""
+    """MLS-MPM on ``grid`` for particles of volume ``particle_volume`` (m³) of ``rock``: one
+    volume for all, or one per particle ``(N,)`` (the coarse levels of ``mpm_settle``)."""
 
-    def __init__(self, grid: Grid3D, rock: Rock, particle_volume: float, params: MpmParams = MpmParams()):
+    def __init__(self, grid: Grid3D, rock: Rock, particle_volume: float | np.ndarray,
+                 params: MpmParams = MpmParams()):
         self.grid, self.rock, self.params = grid, rock, params
         self.volume = particle_volume
         self.mass = rock.density * particle_volume
+        self._volumes = np.ascontiguousarray(np.atleast_1d(particle_volume), dtype=np.float64)
+        self._masses = rock.density * self._volumes
         self.dt = params.cfl * grid.h / rock.p_wave_speed
         self.origin = np.asarray(grid.origin, dtype=np.float64)
         self.upper = self.origin + np.asarray(grid.shape) * grid.h * (1.0 - 1e-12)
-        nodes = tuple(n + 3 for n in grid.shape)
-        self.grid_mass = np.zeros(nodes)
-        self.grid_momentum = np.zeros((*nodes, 3))
-        self.blocks = (nodes[0] // kernels.BLOCK + 1, nodes[1] // kernels.BLOCK + 1)
+        self.nodes = tuple(n + 3 for n in grid.shape)
+        #: momentum (then velocity) and mass of each node, zero outside ``bounds`` between substeps
+        self.nodal = np.zeros((*self.nodes, 4))
+        #: the box of nodes the particles reach (``mpm_kernels.node_bounds``); None: not known
+        self.bounds: np.ndarray | None = None
+        #: when set (``(nx, ny, nz, 4)``), each substep adds its node displacements (m) to it
+        self.displacement: np.ndarray | None = None
+        self.blocks = (self.nodes[0] // kernels.BLOCK + 1, self.nodes[1] // kernels.BLOCK + 1)
         self.colour_blocks, self.colour_starts = _colours(*self.blocks)
 
     def relax(self, particles: Particles, max_substeps: int) -> Relaxation:
@@ -116,6 +124,7 @@ class StressSolver:
         if damping is None:
             damping = min(0.5, KINETIC_VISCOUS_SHARE * math.pi * self.params.cfl * self.grid.h / height)
         speed_scale = GRAVITY * height / self.rock.p_wave_speed
+        self.bounds = None
         order = starts = None
         drift = math.inf
         residual = math.inf
@@ -142,16 +151,23 @@ class StressSolver:
         return Relaxation(done, residual, residual < self.params.tolerance)
 
     def substep(self, particles: Particles, order: np.ndarray, starts: np.ndarray, damping: float) -> float:
-        """One MLS-MPM step; returns the largest grid speed (m/s)."""
-        kernels.clear(self.grid_mass, self.grid_momentum)
+        """One MLS-MPM step; returns the mass-weighted RMS grid speed (m/s). ``order`` and
+        ``starts`` come from :meth:`_sorted` on positions at most ``BLOCK − 2`` nodes from the
+        current ones; ``self.bounds`` holds the particles' box of nodes (None: found here)."""
+        if self.bounds is None:
+            self.bounds = kernels.node_bounds(particles.positions, self.origin, self.grid.h)
+        bounds = self.bounds
         kernels.particles_to_grid(order, starts, self.colour_blocks, self.colour_starts, particles.positions,
-                                  particles.velocity, particles.affine, particles.deformation, self.mass,
-                                  self.volume, self.rock.shear_modulus, self.rock.lame_lambda, self.dt,
-                                  self.origin, self.grid.h, self.grid_mass, self.grid_momentum)
-        fastest = kernels.update_grid(self.grid_mass, self.grid_momentum, self.dt, GRAVITY, damping)
-        kernels.grid_to_particles(self.grid_momentum, particles.positions, particles.velocity,
-                                  particles.affine,
-                                  particles.deformation, self.dt, self.origin, self.grid.h, self.upper)
+                                  particles.velocity, particles.affine, particles.deformation, self._masses,
+                                  self._volumes, self.rock.shear_modulus, self.rock.lame_lambda, self.dt,
+                                  self.origin, self.grid.h, self.nodal)
+        fastest = kernels.update_grid(self.nodal, bounds, self.dt, GRAVITY, damping)
+        if self.displacement is not None:
+            kernels.accumulate(self.nodal, bounds, self.dt, self.displacement)
+        self.bounds = kernels.grid_to_particles(self.nodal, particles.positions, particles.velocity,
+                                                particles.affine, particles.deformation, self.dt, self.origin,
+                                                self.grid.h, self.upper)
+        kernels.clear(self.nodal, bounds)
         return float(fastest)
 
     def _sorted(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -171,13 +187,20 @@ class StressSolver:
         stresses may differ by patterns that exert no nodal force, a noise of ~10 % on a column
         under its own weight. The stress the grid carries, and that Eq. 2 should see, is the
         smoothed one (within ~1 % on the same column)."""
+        return self.smoothed_at(particles, values, particles.positions)
+
+    def smoothed_at(self, particles: Particles, values: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """The smoothed field of :meth:`smoothed` read at the points ``at`` ``(M, 3)`` (m) instead
+        of at the particles: ``(M, m)``. Each point must lie within a cell of a particle (its
+        nodes must include one that received values)."""
         order, starts = self._sorted(particles.positions)
-        weight = np.zeros(self.grid_mass.shape)
-        sums = np.zeros((*self.grid_mass.shape, values.shape[1]))
+        weight = np.zeros(self.nodes)
+        sums = np.zeros((*self.nodes, values.shape[1]))
         kernels.scatter_values(order, starts, self.colour_blocks, self.colour_starts, particles.positions,
                                np.ascontiguousarray(values, dtype=np.float64), self.origin, self.grid.h,
                                weight, sums)
-        return kernels.gather_values(weight, sums, particles.positions, self.origin, self.grid.h)
+        return kernels.gather_values(weight, sums, np.ascontiguousarray(at, dtype=np.float64), self.origin,
+                                     self.grid.h)
 
 
 def _colours(blocks_x: int, blocks_y: int) -> tuple[np.ndarray, np.ndarray]:
