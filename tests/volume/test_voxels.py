@@ -13,7 +13,7 @@ from tests.volume.conftest import assert_watertight
 
 from unerode_cli.particles import voxel_kernels as vk
 from unerode_cli.volume import voxel_kernels as kv
-from unerode_cli.volume.mesh import enclosed_volume
+from unerode_cli.volume.mesh import enclosed_volume, vertex_normals
 from unerode_cli.volume.voxels import (
     BinaryVoxels,
     DensityVoxels,
@@ -24,7 +24,6 @@ from unerode_cli.volume.voxels import (
     grid_to_xyz,
     ground_mesh,
     horizon_material,
-    vertex_normals,
     xyz_to_grid,
 )
 

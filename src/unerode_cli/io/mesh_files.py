@@ -52,8 +52,8 @@ from unerode_cli.errors import InputError
 from unerode_cli.io.gltf_mesh import Primitive, check_gltf, glb_bytes, read_glb
 from unerode_cli.io.particle_ply import ORIGIN_COMMENT
 from unerode_cli.io.paths import active_plan, atomic_path, check_output
-from unerode_cli.volume.mesh import Mesh, linear_colours, material_colours
-from unerode_cli.volume.uv_projection import UV_SCALE, box_uv, vertex_normals
+from unerode_cli.volume.mesh import Mesh, linear_colours, material_colours, vertex_normals
+from unerode_cli.volume.uv_projection import UV_SCALE, box_uv
 
 MESH_FORMATS = (".ply", ".obj", ".glb")
 UP_AXES = ("y", "z")

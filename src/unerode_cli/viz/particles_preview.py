@@ -25,8 +25,7 @@ VIEW_ELEVATION = 25.0
 #: Light from azimuth 240° (west-south-west, on the camera's side) and 45° above the horizon, so
 #: the faces the camera sees are lit unequally (a unit vector towards the light, x east, y north,
 #: z up).
-LIGHT = np.array([math.sin(math.radians(240.0)) * math.sqrt(0.5), math.cos(math.radians(240.0)) * math.sqrt(0.5),
-                  math.sqrt(0.5)])
+LIGHT = np.array([math.sin(math.radians(240.0)), math.cos(math.radians(240.0)), 1.0]) * math.sqrt(0.5)
 #: Radius of a particle's disc, in particle spacings.
 DISC_RADIUS = 0.75
 

@@ -107,6 +107,24 @@ def surface_mesh(density: np.ndarray, origin: tuple[float, float, float], h: flo
     return Mesh(vertices, faces, vertex_materials, material_colours(vertex_materials))
 
 
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit outward normals float64 (n, 3) of a mesh's ``vertices`` (n, 3): the sum of the
+    normals of the ``faces`` (m, 3, counter-clockwise seen from outside) around each vertex,
+    weighted by their areas (the cross product of two edges is twice the area along the
+    normal); 0 for a vertex of no face or whose faces cancel."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    summed = np.zeros((len(vertices), 3))
+    if len(faces):
+        a, b, c = (vertices[faces[:, i]] for i in range(3))
+        face = np.cross(b - a, c - a)
+        index = faces.ravel()
+        for axis in range(3):
+            summed[:, axis] = np.bincount(index, np.repeat(face[:, axis], 3), minlength=len(vertices))
+    length = np.linalg.norm(summed, axis=1, keepdims=True)
+    return np.divide(summed, length, out=np.zeros_like(summed), where=length > 0)
+
+
 def enclosed_volume(mesh: Mesh) -> float:
     """The volume (m³) a closed mesh encloses, by the divergence theorem: the sum over faces of
     the signed tetrahedra (v₀ · (v₁ × v₂))/6, with the vertices taken from their centroid (for

@@ -35,24 +35,6 @@ _U_SIGN = np.array([[-1.0, 1.0], [1.0, -1.0], [-1.0, 1.0]])
 _V_AXIS = np.array([[2, 2], [2, 2], [1, 1]])
 
 
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Unit outward normals float64 (n, 3) of a mesh's ``vertices`` (n, 3): the sum of the
-    normals of the ``faces`` (m, 3, counter-clockwise seen from outside) around each vertex,
-    weighted by their areas (the cross product of two edges is twice the area along the
-    normal); 0 for a vertex of no face or whose faces cancel."""
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces, dtype=np.int64)
-    summed = np.zeros((len(vertices), 3))
-    if len(faces):
-        a, b, c = (vertices[faces[:, i]] for i in range(3))
-        face = np.cross(b - a, c - a)
-        index = faces.ravel()
-        for axis in range(3):
-            summed[:, axis] = np.bincount(index, np.repeat(face[:, axis], 3), minlength=len(vertices))
-    length = np.linalg.norm(summed, axis=1, keepdims=True)
-    return np.divide(summed, length, out=np.zeros_like(summed), where=length > 0)
-
-
 def box_uv(vertices: np.ndarray, normals: np.ndarray, scale: float = UV_SCALE) -> np.ndarray:
     """Box-projected texture coordinates float32 (n, 2) of ``vertices`` (n, 3, m) with unit
     ``normals`` (n, 3): the vertex's coordinates in the plane of its normal's dominant axis over

@@ -231,15 +231,3 @@ def ground_mesh(voxels: DensityVoxels | BinaryVoxels):
     vertices = (mesh.vertices - 0.5) * np.asarray(voxels.geometry.size)
     return Mesh(vertices, mesh.faces, mesh.materials, mesh.colours)
 
-
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Unit outward normals float64[n, 3] of a mesh's vertices: the sum of the normals of the
-    faces around each vertex, weighted by their areas (faces counter-clockwise seen from outside);
-    0 for a vertex of no face."""
-    a, b, c = (vertices[faces[:, i]] for i in range(3))
-    face = np.cross(b - a, c - a)  # twice the area, along the outward normal
-    summed = np.zeros_like(vertices, dtype=np.float64)
-    for i in range(3):
-        np.add.at(summed, faces[:, i], face)
-    length = np.linalg.norm(summed, axis=1, keepdims=True)
-    return np.divide(summed, length, out=np.zeros_like(summed), where=length > 0)

@@ -24,8 +24,8 @@ from unerode_cli.particles import Terrain as ParticleTerrain
 from unerode_cli.run.outputs import Outputs, field_preview, save
 from unerode_cli.run.stepping import finish_checkpoints
 from unerode_cli.viz.particles_preview import save_particles_preview
-from unerode_cli.volume.mesh import MeshExtraMissing, enclosed_volume, marching_cubes_function
-from unerode_cli.volume.voxels import ground_mesh, vertex_normals
+from unerode_cli.volume.mesh import MeshExtraMissing, enclosed_volume, marching_cubes_function, vertex_normals
+from unerode_cli.volume.voxels import ground_mesh
 
 if TYPE_CHECKING:
     from unerode_cli.jobs.particle_erode.job import ParticleResult, PreparedParticleJob
