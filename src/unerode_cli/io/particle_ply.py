@@ -19,8 +19,9 @@ What each tool reads of a particles file:
 :func:`attribute_colours` turns a property into viridis colours for ``colours``.
 
 A path ending ``.npz`` gets the same columns as a compressed NumPy archive instead (one array
-per column, ``np.load(path)["x"]``; ``origin`` (3,) float64 and ``comments`` as arrays): a third
-to a half of the PLY's size, for series of snapshots read in Python.
+per column, ``np.load(path)["x"]``; ``origin`` (3,) float64 and ``comments`` as arrays; the
+normals as int8 in 1/127 steps, which :func:`read_particle_ply` turns back into float32): about
+a third of the PLY's size, for series of snapshots read in Python.
 """
 
 from __future__ import annotations
@@ -36,6 +37,9 @@ _PLY_TYPES = {np.dtype("<f4"): "float", np.dtype("<i4"): "int", np.dtype("u1"): 
 _NUMPY_TYPES = {"float": "<f4", "float32": "<f4", "double": "<f8", "int": "<i4", "int32": "<i4",
                 "uchar": "u1", "uint8": "u1"}
 ORIGIN_COMMENT = "origin"
+#: A ``.npz`` keeps each normal's components as int8 in steps of 1/``NORMAL_STEPS`` (at most
+#: 0.004 off; read back as float32).
+NORMAL_STEPS = 127
 
 
 def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
@@ -62,6 +66,8 @@ def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
         kind = "u1" if values.dtype == bool else "<i4" if np.issubdtype(values.dtype, np.integer) else "<f4"
         columns[name] = values.astype(kind)
     if Path(path).suffix.lower() == ".npz":
+        for name in ("nx", "ny", "nz"):
+            columns[name] = np.rint(columns[name] * NORMAL_STEPS).astype(np.int8)
         with atomic_path(path) as tmp, open(tmp, "wb") as handle:
             np.savez_compressed(handle, **columns, origin=np.array(origin, dtype=np.float64),
                                 comments=np.array(comments, dtype=str))
@@ -100,6 +106,9 @@ def read_particle_ply(path: Path) -> tuple[dict[str, np.ndarray], tuple[float, f
     if Path(path).suffix.lower() == ".npz":
         with np.load(path, allow_pickle=False) as saved:
             columns = {name: saved[name] for name in saved.files if name not in ("origin", "comments")}
+            for name in ("nx", "ny", "nz"):
+                if name in columns and columns[name].dtype == np.int8:
+                    columns[name] = (columns[name] / np.float32(NORMAL_STEPS)).astype("<f4")
             origin = saved["origin"] if "origin" in saved.files else np.zeros(3)
         return columns, (float(origin[0]), float(origin[1]), float(origin[2]))
     data = Path(path).read_bytes()
