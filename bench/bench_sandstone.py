@@ -13,8 +13,9 @@ sorting, the substeps, and the smoothed stress) divided by the substeps it ran, 
 block, with no early stop (a frame's 10 substeps: an early stop after one substep would charge
 it the whole frame's sorting and smoothing); the case prints the final residual. The sketch
 runs its substep on the same (lithostatic) state on one thread. The first frame is
-``Simulation.step`` from the sampled block (lithostatic guess, then the settling up to
-``settle_substeps``), timed once; the later frame is a whole ``Simulation.step`` after it
+``Simulation.step`` from the sampled block (lithostatic guess, then the multilevel settling,
+``mpm_settle``, up to ``settle_substeps`` a level), timed once, printing the fine and coarse
+substeps; the later frame is a whole ``Simulation.step`` after it
 (default parameters). The cases print the substeps and residuals they ran.
 """
 
@@ -117,7 +118,9 @@ def _first_frame():
         start = time.perf_counter()
         stats = simulation.step()
         seconds = time.perf_counter() - start
-        print(f"    first frame: {stats.mpm_substeps} substeps, residual {stats.mpm_residual:.3g}, stages "
+        coarse = simulation.last_relaxation.coarse_substeps if simulation.last_relaxation else ()
+        print(f"    first frame: {stats.mpm_substeps} fine substeps, residual {stats.mpm_residual:.3g}, "
+              f"coarse substeps {coarse} (= {stats.mpm_coarse_cost:.1f} fine), stages "
               + ", ".join(f"{k} {v:.2f} s" for k, v in stats.seconds.items()))
         return Timed(seconds)
 

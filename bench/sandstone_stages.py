@@ -1,7 +1,8 @@
 """Cases of the sandstone's surface and transport stages at about a million particles, for
 ``bench_sandstone.py`` to register (``harness.benchmark``): surface particles, normals (all,
-and near a frame's changes), wind abrasion, deflation and deposition; and the water's stages
-with deposition (``fluvial_case``) on a rock it is given.
+and near a frame's changes), wind abrasion, deflation, deposition and the block-fall test
+(``support_case``); and the water's stages with deposition (``fluvial_case``) on a rock it is
+given.
 
 The rock: a block of 128 × 96 × 80 lattice spacings (1 m) pierced by a tunnel of radius 24 m
 along y (an arch), on a jittered lattice (a quarter spacing, as the sampler's), about 0.9 M
@@ -22,6 +23,7 @@ from unerode_cli.sandstone import (
     deposition,
     discharge,
     fluvial,
+    support,
     surface,
     water_receivers,
     wind,
@@ -121,6 +123,19 @@ def deposition_case(threads: int = 2):
         return deposition.deposit(positions[eroded], grid.occupancy(kept), grid, params, SEED, 0)
 
     return work, len(eroded), "eroded particles"
+
+
+def support_case(threads: int = 2):
+    """The block-fall test (``support.unsupported``) of the rock, after a frame's erosion of the
+    tunnel's roof: the bridge over the tunnel is held by its piers only."""
+    positions, _, _ = _rock()
+    kept = np.delete(positions, _eroded(), axis=0)
+
+    def work():
+        _threads(threads)
+        return support.unsupported(kept, SURFACE_GRID)
+
+    return work, len(kept), "particles"
 
 
 def fluvial_case(particles, lattice, threads: int = 2):

@@ -34,7 +34,8 @@ OPTIONS = ("--frames", "5", "--seed", "7", "--threads", "1", "--checkpoint-every
            "--substeps", "20", "--settle-substeps", "400")
 #: Columns of frames.csv that do not time anything.
 COUNTS = ("frame", "particles", "eroded", "deposited", "exported", "surface", "interlocked_share",
-          "max_stress_mpa", "mpm_substeps", "mpm_residual", "eroded_fluvial", "discharge_max_m3y", "fallen")
+          "max_stress_mpa", "mpm_substeps", "mpm_residual", "mpm_coarse_cost", "eroded_fluvial",
+          "discharge_max_m3y", "fallen")
 
 
 def _scene(tmp_path: Path) -> Path:

@@ -134,8 +134,13 @@ def test_a_wide_layer_bonded_to_its_ground_carries_geostatic_stress() -> None:
     solver = StressSolver(lattice.mpm_grid(), ROCK, SPACING**3, MpmParams())
     lithostatic_guess(particles, lattice.surface_grid(), ROCK, SPACING)
     assert solver.relax(particles, MpmParams().settle_substeps).converged
-    sigma = solver.cauchy_stress(particles)
-    x, y, z = particles.positions.T
+    assert_geostatic(solver.cauchy_stress(particles), particles.positions, thickness)
+
+
+def assert_geostatic(sigma: np.ndarray, positions: np.ndarray, thickness: float) -> None:
+    """The core of a wide layer ``thickness`` m thick (x, y within 4 m of 16 m, z in 1–3 m) is in
+    uniaxial strain: σ_zz = −ρg(H − z), σ_xx = σ_yy = ν/(1 − ν)·σ_zz, each within 3 %."""
+    x, y, z = positions.T
     core = (np.abs(x - 16.0) < 4.0) & (np.abs(y - 16.0) < 4.0) & (z > 1.0) & (z < 3.0)
     vertical = sigma[core, 2, 2].mean()
     assert vertical == pytest.approx(-ROCK.density * GRAVITY * (thickness - z[core]).mean(), rel=0.03)

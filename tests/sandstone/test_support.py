@@ -54,3 +54,24 @@ def test_a_floating_block_reaches_the_ground_as_debris() -> None:
     assert after.positions[debris, 2].mean() < 5.0
     assert after.positions[~debris, 2].max() < 2.0
     assert not unsupported(after.positions, simulation.surface_grid).any()
+
+
+def test_unsupported_particles_are_those_of_scipys_components_without_a_ground_cell() -> None:
+    """Random rocks (a third of the cells filled, so pieces hang by corners, overhang and wind
+    down and up again): the particles that fall are those whose 26-connected component
+    (``scipy.ndimage.label``) holds no cell of the lowest layer, and those outside the grid."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(5)
+    grid = Grid3D((0.0, 0.0, 0.0), 1.0, (9, 8, 7))
+    for _ in range(20):
+        positions = rng.random((200, 3)) * (np.array(grid.shape) + 1.0) - 0.5
+        cells = grid.cells_of(positions)
+        inside = grid.inside(cells)
+        occupied = np.zeros(grid.shape, dtype=bool)
+        occupied[tuple(cells[inside].T)] = True
+        labels, _ = ndimage.label(occupied, structure=np.ones((3, 3, 3)))
+        grounded = np.setdiff1d(np.unique(labels[:, :, 0]), [0])
+        expected = ~inside
+        expected[inside] = ~np.isin(labels[tuple(cells[inside].T)], grounded)
+        assert np.array_equal(unsupported(positions, grid), expected)

@@ -72,6 +72,8 @@ def deflation_rate(surface: np.ndarray, k_d: np.ndarray, compression: np.ndarray
 
     Deflation comes from all directions alike (002 §5.2), so it does not depend on the normal.
     """
-    threshold = params.cohesion + params.friction * np.asarray(compression, dtype=np.float64)
-    rate = np.asarray(k_d, dtype=np.float64) * detachment_probability(threshold, params.alpha)
-    return np.where(np.asarray(surface, dtype=np.bool_), rate, 0.0)
+    index = np.flatnonzero(surface)
+    threshold = params.cohesion + params.friction * np.asarray(compression, dtype=np.float64)[index]
+    rate = np.zeros(len(surface))
+    rate[index] = np.asarray(k_d, dtype=np.float64)[index] * detachment_probability(threshold, params.alpha)
+    return rate

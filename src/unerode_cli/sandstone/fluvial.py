@@ -125,7 +125,8 @@ def fluvial_rate(positions: np.ndarray, normals: np.ndarray, surface: np.ndarray
         params: k_f and the slope cap.
     """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
-    which = np.flatnonzero(np.asarray(surface, dtype=np.bool_) & (np.asarray(k_t)[layer] > 0.0))
+    which = np.flatnonzero(surface)
+    which = which[np.asarray(k_t)[np.asarray(layer)[which]] > 0.0]
     out = np.zeros(positions.shape[0])
     if which.size == 0:
         return out

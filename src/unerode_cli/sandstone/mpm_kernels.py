@@ -179,6 +179,16 @@ def _weights(fx: float) -> tuple[float, float, float]:
     return 0.5 * (1.5 - fx) ** 2, 0.75 - (fx - 1.0) ** 2, 0.5 * (fx - 0.5) ** 2
 
 
+@numba.njit(cache=True)
+def _stencil(position: np.ndarray, origin: np.ndarray, inv_h: float):
+    """A particle's 3 × 3 × 3 stencil: its base node (bx, by, bz) and B-spline weights (wx, wy, wz)
+    along each axis."""
+    bx, fx = _base(position[0], origin[0], inv_h)
+    by, fy = _base(position[1], origin[1], inv_h)
+    bz, fz = _base(position[2], origin[2], inv_h)
+    return bx, by, bz, _weights(fx), _weights(fy), _weights(fz)
+
+
 @numba.njit(cache=True, parallel=True)
 def block_keys(positions: np.ndarray, origin: np.ndarray, h: float, blocks_y: int) -> np.ndarray:
     """The xy block (see the module docstring) of each particle's base node."""
@@ -208,6 +218,15 @@ def counting_sort(keys: np.ndarray, key_count: int) -> tuple[np.ndarray, np.ndar
     return order, starts
 
 
+@numba.njit(cache=True)
+def _empty_bounds() -> np.ndarray:
+    """Per chunk of particles, an empty box of nodes (lowest above highest), ``(CHUNKS, 2, 3)``."""
+    bounds = np.empty((CHUNKS, 2, 3), dtype=np.int64)
+    bounds[:, 0, :] = np.iinfo(np.int64).max
+    bounds[:, 1, :] = np.iinfo(np.int64).min
+    return bounds
+
+
 @numba.njit(cache=True, parallel=True)
 def node_bounds(positions: np.ndarray, origin: np.ndarray, h: float) -> np.ndarray:
     """The box of nodes the particles' stencils reach: lowest base node and highest base node
@@ -215,10 +234,8 @@ def node_bounds(positions: np.ndarray, origin: np.ndarray, h: float) -> np.ndarr
     n = positions.shape[0]
     inv_h = 1.0 / h
     size = (n + CHUNKS - 1) // CHUNKS
-    bounds = np.empty((CHUNKS, 2, 3), dtype=np.int64)
+    bounds = _empty_bounds()
     for c in numba.prange(CHUNKS):
-        bounds[c, 0, :] = np.iinfo(np.int64).max
-        bounds[c, 1, :] = np.iinfo(np.int64).min
         for p in range(c * size, min(n, (c + 1) * size)):
             for a in range(3):
                 b, _ = _base(positions[p, a], origin[a], inv_h)
@@ -387,10 +404,8 @@ def grid_to_particles(grid: np.ndarray, positions: np.ndarray, velocity: np.ndar
     inv_h = 1.0 / h
     scale = 4.0 * inv_h
     size = (n + CHUNKS - 1) // CHUNKS
-    bounds = np.empty((CHUNKS, 2, 3), dtype=np.int64)
+    bounds = _empty_bounds()
     for chunk in numba.prange(CHUNKS):
-        bounds[chunk, 0, :] = np.iinfo(np.int64).max
-        bounds[chunk, 1, :] = np.iinfo(np.int64).min
         for p in range(chunk * size, min(n, (chunk + 1) * size)):
             bx, fx = _base(positions[p, 0], origin[0], inv_h)
             by, fy = _base(positions[p, 1], origin[1], inv_h)
@@ -440,12 +455,7 @@ def scatter_values(order: np.ndarray, starts: np.ndarray, colour_blocks: np.ndar
             block = colour_blocks[first + c]
             for s in range(starts[block], starts[block + 1]):
                 p = order[s]
-                bx, fx = _base(positions[p, 0], origin[0], inv_h)
-                by, fy = _base(positions[p, 1], origin[1], inv_h)
-                bz, fz = _base(positions[p, 2], origin[2], inv_h)
-                wx = _weights(fx)
-                wy = _weights(fy)
-                wz = _weights(fz)
+                bx, by, bz, wx, wy, wz = _stencil(positions[p], origin, inv_h)
                 for i in range(3):
                     for j in range(3):
                         for k in range(3):
@@ -464,12 +474,7 @@ def gather_values(grid_weight: np.ndarray, grid_values: np.ndarray, positions: n
     m = grid_values.shape[3]
     out = np.zeros((positions.shape[0], m))
     for p in numba.prange(positions.shape[0]):
-        bx, fx = _base(positions[p, 0], origin[0], inv_h)
-        by, fy = _base(positions[p, 1], origin[1], inv_h)
-        bz, fz = _base(positions[p, 2], origin[2], inv_h)
-        wx = _weights(fx)
-        wy = _weights(fy)
-        wz = _weights(fz)
+        bx, by, bz, wx, wy, wz = _stencil(positions[p], origin, inv_h)
         total = 0.0
         for i in range(3):
             for j in range(3):

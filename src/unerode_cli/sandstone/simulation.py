@@ -35,6 +35,7 @@ from unerode_cli.sandstone import (
     deposition,
     discharge,
     fluvial,
+    mpm_settle,
     support,
     surface,
     vegetation,
@@ -93,8 +94,9 @@ class FrameStats:
     interlocked particles, the largest compressive stress (Pa), the MPM's work, the wall
     time of each stage (s), the eroded particles whose fluvial rate exceeded their wind rate
     (``eroded_fluvial``) and the largest discharge of a cell (m³/y; 0 when fluvial erosion did
-    not run), and the particles of pieces cut off the ground that fell (``fallen``; ``fallen_landed``
-    of them laid as debris, the rest left the domain)."""
+    not run), the particles of pieces cut off the ground that fell (``fallen``; ``fallen_landed``
+    of them laid as debris, the rest left the domain), and the first frame's coarse MPM substeps
+    in fine-substep equivalents (``mpm_coarse_cost``, ``mpm_settle``; 0 in later frames)."""
 
     frame: int
     particles: int
@@ -111,6 +113,7 @@ class FrameStats:
     discharge_max: float
     fallen: int = 0
     fallen_landed: int = 0
+    mpm_coarse_cost: float = 0.0
 
 
 class Simulation:
@@ -188,10 +191,11 @@ class Simulation:
                                        params.dt)
         lap("erosion")
         removed = p.positions[eroded]
-        placed = self._deposit(p.positions[eroded & ~p.deposit], p.select(~eroded))
+        placed = self._deposit(p.positions[eroded & ~p.deposit], p, np.flatnonzero(~eroded))
         falls = support.unsupported(self.particles.positions, self.surface_grid)
         fell = self.particles.positions[falls]
-        landed = self._deposit(fell, self.particles.select(~falls)) if len(fell) else np.zeros((0, 3))
+        landed = (self._deposit(fell, self.particles, np.flatnonzero(~falls)) if len(fell)
+                  else np.zeros((0, 3)))
         lap("deposition")
         self.changes = np.concatenate([removed, placed, fell, landed])
         self.frame += 1
@@ -202,7 +206,8 @@ class Simulation:
             max_stress=float(p.stress.max()) if len(p) else 0.0, mpm_substeps=relaxation.substeps,
             mpm_residual=relaxation.residual, seconds=seconds,
             eroded_fluvial=int(np.count_nonzero(eroded & (fluvial_rate > rates))),
-            discharge_max=discharge_max, fallen=len(fell), fallen_landed=len(landed))
+            discharge_max=discharge_max, fallen=len(fell), fallen_landed=len(landed),
+            mpm_coarse_cost=relaxation.coarse_cost)
 
     def _flow_abrasion(self, on_surface: np.ndarray) -> np.ndarray:
         """Abrasion by the local wind of the flow around the rock (``wind_flow``), one flow per
@@ -229,27 +234,48 @@ class Simulation:
         return rate, float(flow.q.max())
 
     def _stress(self) -> Relaxation:
-        """Relax the MPM state: the first frame of a run settles (from the lithostatic guess)."""
+        """Relax the MPM state: the first frame of a run settles (from the lithostatic guess, on
+        ``mpm.coarse_levels`` coarse grids first)."""
         mpm = self.params.mpm
         first = self.last_relaxation is None and self.frame == 0
         if first and mpm.lithostatic:
             lithostatic_guess(self.particles, self.surface_grid, self.rock, self.spacing)
-        self.last_relaxation = self.solver.relax(self.particles,
-                                                 mpm.settle_substeps if first else mpm.substeps)
+        if first:
+            self.last_relaxation = mpm_settle.settle(self.solver, self.particles, mpm.coarse_levels,
+                                                     mpm.settle_substeps)
+        else:
+            self.last_relaxation = self.solver.relax(self.particles, mpm.substeps)
         return self.last_relaxation
 
-    def _deposit(self, removed: np.ndarray, kept: Particles) -> np.ndarray:
-        """Replace the particles by ``kept`` plus the deposits of the rock particles ``removed``;
-        returns where the deposits were placed (the rest were exported)."""
-        if not self.params.processes.deposition or len(removed) == 0:
-            self.particles = kept
-            return np.zeros((0, 3))
-        grid = deposition.offset_grid(self.deposition_grid, self.seed, self.frame)
-        placed, _ = deposition.deposit(removed, grid.occupancy(kept.positions), grid, self.params.deposition,
-                                       self.seed, self.frame)
-        # the offset grid overhangs the domain by up to a cell: what lands beyond it is exported
-        placed = placed[self.deposition_grid.inside(self.deposition_grid.cells_of(placed))]
-        new = Particles.new(placed, np.full(len(placed), self.layers.deposit_index),
-                            viability=self.params.deposition.deposit_viability, deposit=True)
-        self.particles = kept.appended(new)
+    def _deposit(self, removed: np.ndarray, particles: Particles, keep: np.ndarray) -> np.ndarray:
+        """Replace the particles by those of ``particles`` at the indices ``keep`` plus the
+        deposits of the rock particles ``removed``; returns where the deposits were placed (the
+        rest were exported). Each array is gathered once, into room for the deposits (a frame's
+        copy of every particle's state is its largest memory traffic)."""
+        room = len(removed) if self.params.processes.deposition else 0
+        placed = np.zeros((0, 3))
+        if room == 0 and len(keep) == len(particles):
+            self.particles = particles
+            return placed
+        arrays = {name: _gathered(array, keep, room) for name, array in particles.arrays().items()}
+        if room:
+            grid = deposition.offset_grid(self.deposition_grid, self.seed, self.frame)
+            occupancy = grid.occupancy(arrays["positions"][:len(keep)])
+            placed, _ = deposition.deposit(removed, occupancy, grid, self.params.deposition, self.seed,
+                                           self.frame)
+            # the offset grid overhangs the domain by up to a cell: what lands beyond it is exported
+            placed = placed[self.deposition_grid.inside(self.deposition_grid.cells_of(placed))]
+            new = Particles.new(placed, np.full(len(placed), self.layers.deposit_index),
+                                viability=self.params.deposition.deposit_viability, deposit=True)
+            for name, array in new.arrays().items():
+                arrays[name][len(keep):len(keep) + len(placed)] = array
+        self.particles = Particles.from_arrays({name: array[:len(keep) + len(placed)]
+                                                for name, array in arrays.items()})
         return placed
+
+
+def _gathered(array: np.ndarray, keep: np.ndarray, room: int) -> np.ndarray:
+    """The rows ``keep`` of ``array`` followed by ``room`` unset rows."""
+    out = np.empty((len(keep) + room, *array.shape[1:]), dtype=array.dtype)
+    np.take(array, keep, axis=0, out=out[:len(keep)], mode="clip")
+    return out

@@ -34,10 +34,21 @@ from unerode_cli.sandstone.grid3d import Grid3D
 REACH = 3
 
 
+def filled_cells(positions: np.ndarray, grid: Grid3D) -> np.ndarray:
+    """Which cells of ``grid`` hold one of the ``positions`` ``(N, 3)`` (m), ``uint8 (nx, ny, nz)``
+    (1: filled, 0: empty); points outside the grid are left out. The 0/1 flags of
+    ``Grid3D.occupancy`` > 0, set in parallel (every writer writes the same 1)."""
+    flags = np.zeros(grid.shape, dtype=np.uint8)
+    _fill_cells(np.ascontiguousarray(positions, dtype=np.float64), np.asarray(grid.origin, dtype=np.float64),
+                grid.h, flags)
+    return flags
+
+
 def surface_cells(occupancy: np.ndarray) -> np.ndarray:
     """Which cells hold particles and have an empty face neighbour, ``bool (nx, ny, nz)``;
-    ``occupancy`` is the particle count per cell (``Grid3D.occupancy``). The layer below the
-    grid is ground (filled); the other cells outside the grid are empty."""
+    ``occupancy`` is the particle count per cell (``Grid3D.occupancy``) or the filled flags
+    (``filled_cells``). The layer below the grid is ground (filled); the other cells outside
+    the grid are empty."""
     out = np.zeros(occupancy.shape, dtype=np.bool_)
     _surface_cells(occupancy, out)
     return out
@@ -51,7 +62,7 @@ def surface_particles(positions: np.ndarray, grid: Grid3D) -> np.ndarray:
         grid: the occupancy grid (module docstring: one particle per cell).
     """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
-    cells = surface_cells(grid.occupancy(positions))
+    cells = surface_cells(filled_cells(positions, grid))
     out = np.empty(positions.shape[0], dtype=np.bool_)
     _lookup_surface(positions, np.asarray(grid.origin, dtype=np.float64), grid.h, cells, out)
     return out
@@ -92,30 +103,30 @@ def normals(positions: np.ndarray, surface: np.ndarray, grid: Grid3D, k: int = 2
     if previous is not None:
         if recompute is None:
             raise ValueError("recomputing normals near changes needs the flags of what to recompute")
-        keep = surface & ~np.asarray(recompute, dtype=np.bool_) & np.any(previous != 0.0, axis=1)
-        out[keep] = previous[keep]
-        targets &= ~keep
-    if not targets.any():
+        _keep_previous(surface, np.asarray(recompute, dtype=np.bool_),
+                       np.ascontiguousarray(previous, dtype=np.float64), out, targets)
+    index = np.flatnonzero(targets)
+    if index.size == 0:
         return out
-    cells = np.clip(grid.cells_of(positions), 0, np.asarray(grid.shape) - 1)
+    origin = np.asarray(grid.origin, dtype=np.float64)
+    on_surface = np.flatnonzero(surface)
     # the covariance normals are needed on the targets' neighbours (within REACH cells), whose
     # own neighbours lie within 2 REACH cells of the targets
-    near = _dilate(_mark(cells[targets], grid.shape), REACH)
-    needed = np.flatnonzero(surface & near[cells[:, 0], cells[:, 1], cells[:, 2]])
-    near = _dilate(near, REACH)
-    pool = np.flatnonzero(surface & near[cells[:, 0], cells[:, 1], cells[:, 2]])
+    near = _dilate(_mark(positions[index], grid), REACH)
+    needed = _flagged(positions, on_surface, origin, grid.h, near)
+    pool = _flagged(positions, on_surface, origin, grid.h, _dilate(near, REACH))
     _, found = cKDTree(positions[pool]).query(positions[needed], k=min(k, pool.size),
                                               distance_upper_bound=REACH * grid.h,
                                               workers=numba.get_num_threads())
     found = np.asarray(found, dtype=np.int64).reshape(needed.size, -1)
     found = np.where(found >= pool.size, -1, pool[np.minimum(found, pool.size - 1)])
-    raw = np.zeros_like(positions)
-    _covariance_normals(positions, needed, found, grid.occupancy(positions),
-                        np.asarray(grid.origin, dtype=np.float64), grid.h, raw)
-    row = np.full(positions.shape[0], -1, dtype=np.int64)
-    row[needed] = np.arange(needed.size)
-    index = np.flatnonzero(targets)
-    _averaged_normals(index, found[row[index]], raw, out)
+    raw = np.zeros((needed.size, 3))
+    _covariance_normals(positions, needed, found, filled_cells(positions, grid), origin, grid.h, raw)
+    # rows of ``raw`` by bisection in ``needed`` (sorted), which holds the targets and their
+    # neighbours; a particle not in it would count with a zero normal
+    rows = np.searchsorted(needed, index)
+    found = found[rows]
+    _averaged_normals(index, rows, found, np.searchsorted(needed, found), needed, raw, out)
     return out
 
 
@@ -127,33 +138,105 @@ def near_changes(positions: np.ndarray, changes: np.ndarray, grid: Grid3D,
     is all a change can alter: a surface flag one cell away, which enters covariance normals
     ``REACH`` cells away, which enter averaged normals ``REACH`` cells further."""
     positions = np.ascontiguousarray(positions, dtype=np.float64)
-    upper = np.asarray(grid.shape) - 1
-    near = _dilate(_mark(np.clip(grid.cells_of(np.asarray(changes, dtype=np.float64).reshape(-1, 3)),
-                                 0, upper), grid.shape), reach)
-    cells = np.clip(grid.cells_of(positions), 0, upper)
-    return near[cells[:, 0], cells[:, 1], cells[:, 2]]
+    near = _dilate(_mark(np.asarray(changes, dtype=np.float64).reshape(-1, 3), grid), reach)
+    out = np.empty(positions.shape[0], dtype=np.bool_)
+    _lookup_clipped(positions, np.asarray(grid.origin, dtype=np.float64), grid.h, near, out)
+    return out
 
 
-def _mark(cells: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
-    marked = np.zeros(shape, dtype=np.bool_)
-    marked[cells[:, 0], cells[:, 1], cells[:, 2]] = True
+def _mark(points: np.ndarray, grid: Grid3D) -> np.ndarray:
+    """``bool (nx, ny, nz)``: the cells of the ``points`` ``(M, 3)`` (m), clipped to the grid."""
+    marked = np.zeros(grid.shape, dtype=np.bool_)
+    _mark_clipped(np.ascontiguousarray(points, dtype=np.float64), np.asarray(grid.origin, dtype=np.float64),
+                  grid.h, marked)
     return marked
 
 
 def _dilate(marked: np.ndarray, reach: int) -> np.ndarray:
-    """``marked`` grown by ``reach`` cells along each axis (a cube of side 2·reach + 1)."""
-    out = marked
-    for axis in range(3):
-        grown = out.copy()
-        n = out.shape[axis]
-        for shift in range(1, min(reach, n - 1) + 1):
-            lower = [slice(None)] * 3
-            upper = [slice(None)] * 3
-            lower[axis], upper[axis] = slice(0, n - shift), slice(shift, n)
-            grown[tuple(lower)] |= out[tuple(upper)]
-            grown[tuple(upper)] |= out[tuple(lower)]
-        out = grown
+    """``marked`` grown by ``reach`` cells along each axis (a cube of side 2·reach + 1), clipped
+    to the grid."""
+    out = np.empty_like(marked)
+    spare = np.empty_like(marked)
+    _dilate_first_axis(marked, out, reach)
+    _dilate_first_axis(out.transpose(1, 0, 2), spare.transpose(1, 0, 2), reach)
+    _dilate_first_axis(spare.transpose(2, 0, 1), out.transpose(2, 0, 1), reach)
     return out
+
+
+def _flagged(positions: np.ndarray, which: np.ndarray, origin: np.ndarray, h: float,
+             marked: np.ndarray) -> np.ndarray:
+    """The particles of ``which`` (sorted indices) whose cell (clipped to the grid) is
+    ``marked``, sorted."""
+    flags = np.empty(which.size, dtype=np.bool_)
+    _lookup_clipped(positions[which], origin, h, marked, flags)
+    return which[flags]
+
+
+@numba.njit(cache=True, inline="always")
+def _clipped_cell(positions, p, origin, h, shape):
+    """The cell (i, j, k) of particle ``p``, clipped to a grid of ``shape``."""
+    nx, ny, nz = shape
+    i = min(max(int(math.floor((positions[p, 0] - origin[0]) / h)), 0), nx - 1)
+    j = min(max(int(math.floor((positions[p, 1] - origin[1]) / h)), 0), ny - 1)
+    k = min(max(int(math.floor((positions[p, 2] - origin[2]) / h)), 0), nz - 1)
+    return i, j, k
+
+
+@numba.njit(cache=True)
+def _mark_clipped(points, origin, h, marked):
+    for p in range(points.shape[0]):
+        i, j, k = _clipped_cell(points, p, origin, h, marked.shape)
+        marked[i, j, k] = True
+
+
+@numba.njit(cache=True, parallel=True)
+def _lookup_clipped(positions, origin, h, marked, out):
+    for p in numba.prange(positions.shape[0]):
+        i, j, k = _clipped_cell(positions, p, origin, h, marked.shape)
+        out[p] = marked[i, j, k]
+
+
+@numba.njit(cache=True, parallel=True)
+def _dilate_first_axis(src, dst, reach):
+    """dst[i, j, k] = any(src[i − reach : i + reach + 1, j, k]) (a running count along the
+    first axis, one line of the second axis per task)."""
+    n0, n1, n2 = src.shape
+    for j in numba.prange(n1):
+        count = np.zeros(n2, dtype=np.int64)
+        for i in range(min(reach, n0 - 1) + 1):
+            for k in range(n2):
+                count[k] += src[i, j, k]
+        for i in range(n0):
+            for k in range(n2):
+                dst[i, j, k] = count[k] > 0
+            if i + reach + 1 < n0:
+                for k in range(n2):
+                    count[k] += src[i + reach + 1, j, k]
+            if i - reach >= 0:
+                for k in range(n2):
+                    count[k] -= src[i - reach, j, k]
+
+
+@numba.njit(cache=True, parallel=True)
+def _fill_cells(positions, origin, h, flags):
+    nx, ny, nz = flags.shape
+    for p in numba.prange(positions.shape[0]):
+        i = int(math.floor((positions[p, 0] - origin[0]) / h))
+        j = int(math.floor((positions[p, 1] - origin[1]) / h))
+        k = int(math.floor((positions[p, 2] - origin[2]) / h))
+        if 0 <= i < nx and 0 <= j < ny and 0 <= k < nz:
+            flags[i, j, k] = 1
+
+
+@numba.njit(cache=True, parallel=True)
+def _keep_previous(surface, recompute, previous, out, targets):
+    """Copy ``previous`` into ``out`` for the surface particles not flagged in ``recompute``
+    whose previous normal is nonzero, and clear their ``targets`` flag."""
+    for p in numba.prange(surface.size):
+        if surface[p] and not recompute[p] and (previous[p, 0] != 0.0 or previous[p, 1] != 0.0
+                                                 or previous[p, 2] != 0.0):
+            out[p, 0], out[p, 1], out[p, 2] = previous[p, 0], previous[p, 1], previous[p, 2]
+            targets[p] = False
 
 
 @numba.njit(cache=True, inline="always")
@@ -247,7 +330,8 @@ def _outward(occupancy, origin, h, x, y, z):
 @numba.njit(cache=True, parallel=True)
 def _covariance_normals(positions, index, found, occupancy, origin, h, out):
     """Covariance normals of the particles ``index`` from their neighbours ``found`` (rows of
-    particle indices, −1 = none), oriented outward, written into ``out``."""
+    particle indices, −1 = none), oriented outward, written into row t of ``out`` for
+    ``index[t]``."""
     for t in numba.prange(index.size):
         p = index[t]
         n = 0
@@ -283,23 +367,32 @@ def _covariance_normals(positions, index, found, occupancy, origin, h, out):
             norm = math.sqrt(gx * gx + gy * gy + gz * gz)
             if norm > 0.0:
                 nx, ny, nz = gx / norm, gy / norm, gz / norm
-        out[p, 0], out[p, 1], out[p, 2] = nx, ny, nz
+        out[t, 0], out[t, 1], out[t, 2] = nx, ny, nz
+
+
+@numba.njit(cache=True, inline="always")
+def _add_row(raw, needed, row, p, s):
+    """``s`` plus row ``row`` of ``raw`` when it is particle ``p``'s (``needed[row] == p``)."""
+    if row < needed.size and needed[row] == p:
+        return s[0] + raw[row, 0], s[1] + raw[row, 1], s[2] + raw[row, 2]
+    return s
 
 
 @numba.njit(cache=True, parallel=True)
-def _averaged_normals(index, found, raw, out):
-    """The normals ``raw`` of the particles ``index`` averaged over their neighbours ``found``
-    (rows of particle indices, −1 = none), written into ``out``."""
+def _averaged_normals(index, own, found, rows, needed, raw, out):
+    """The normals of the particles ``index`` averaged over their neighbours ``found`` (rows of
+    particle indices, −1 = none), written into ``out``. Row r of ``raw`` is the normal of
+    particle ``needed[r]``; ``rows`` and ``own`` are the rows of the neighbours and of the
+    particle itself (the normal kept where the neighbours' cancel out)."""
     for t in numba.prange(index.size):
         p = index[t]
-        sx, sy, sz = 0.0, 0.0, 0.0
-        for q in found[t]:
-            if q >= 0:
-                sx += raw[q, 0]
-                sy += raw[q, 1]
-                sz += raw[q, 2]
+        s = (0.0, 0.0, 0.0)
+        for m in range(found.shape[1]):
+            if found[t, m] >= 0:
+                s = _add_row(raw, needed, rows[t, m], found[t, m], s)
+        sx, sy, sz = s
         norm = math.sqrt(sx * sx + sy * sy + sz * sz)
         if norm > 0.0:
             out[p, 0], out[p, 1], out[p, 2] = sx / norm, sy / norm, sz / norm
         else:
-            out[p, 0], out[p, 1], out[p, 2] = raw[p, 0], raw[p, 1], raw[p, 2]
+            out[p, 0], out[p, 1], out[p, 2] = _add_row(raw, needed, own[t], p, (0.0, 0.0, 0.0))

@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from unerode_cli.sandstone.grid3d import Grid3D
+from unerode_cli.sandstone.surface import filled_cells
 
 #: The golden angle (rad) between successive rays of the cone's spiral, and the fraction of a
 #: turn the pattern turns each frame (1/φ).
@@ -139,8 +140,17 @@ def exposure(positions: np.ndarray, which: np.ndarray, grid: Grid3D, rays: np.nd
     within one cell size of the particle (its own face) do not shelter it."""
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     out = np.zeros(positions.shape[0])
-    _exposure(positions, np.flatnonzero(which), grid.occupancy(positions),
-              np.asarray(grid.origin, dtype=np.float64), grid.h,
+    index = np.flatnonzero(which)
+    out[index] = _exposure_of(positions, index, grid, filled_cells(positions, grid), rays, ray_length)
+    return out
+
+
+def _exposure_of(positions: np.ndarray, index: np.ndarray, grid: Grid3D, filled: np.ndarray,
+                 rays: np.ndarray, ray_length: float) -> np.ndarray:
+    """``exposure`` of the particles ``index``, ``(len(index),)``; ``filled``: the filled cells
+    of ``grid`` (``filled_cells``)."""
+    out = np.empty(index.size)
+    _exposure(positions, index, filled, np.asarray(grid.origin, dtype=np.float64), grid.h,
               np.ascontiguousarray(rays, dtype=np.float64), float(ray_length), out)
     return out
 
@@ -161,22 +171,29 @@ def abrasion_rate(positions: np.ndarray, normals: np.ndarray, surface: np.ndarra
 
     Returns W_a, dimensionless (a rate once multiplied by E, 1/year, in Eq. 1).
     """
+    positions = np.ascontiguousarray(positions, dtype=np.float64)
+    filled = filled_cells(positions, grid)
     rate = np.zeros(len(normals))
     for wind, share in prevailing(params):
-        rate += share * _one_wind(positions, normals, surface, grid, k_a, wind, seed, frame)
+        rate += share * _one_wind(positions, normals, surface, grid, filled, k_a, wind, seed, frame)
     return rate
 
 
 def _one_wind(positions: np.ndarray, normals: np.ndarray, surface: np.ndarray, grid: Grid3D,
-              k_a: np.ndarray, params: WindParams, seed: int, frame: int) -> np.ndarray:
-    """``abrasion_rate`` of one wind (no rose)."""
-    d = params.blowing
-    facing = np.maximum(0.0, -(np.asarray(normals, dtype=np.float64) @ d))
-    which = np.asarray(surface, dtype=np.bool_) & (facing > 0.0) & (np.asarray(k_a) != 0.0)
+              filled: np.ndarray, k_a: np.ndarray, params: WindParams, seed: int, frame: int) -> np.ndarray:
+    """``abrasion_rate`` of one wind (no rose), computed on the surface particles only;
+    ``filled``: ``filled_cells`` of the positions on ``grid``."""
+    rate = np.zeros(len(normals))
+    index = np.flatnonzero(surface)
+    facing = np.maximum(0.0, -(np.asarray(normals, dtype=np.float64)[index] @ params.blowing))
+    k = np.asarray(k_a, dtype=np.float64)[index]
+    which = (facing > 0.0) & (k != 0.0)
     if params.speed == 0.0 or not which.any():
-        return np.zeros(len(facing))
-    e = exposure(positions, which, grid, cone_rays(params, seed, frame), params.ray_length)
-    return np.asarray(k_a, dtype=np.float64) * (e * params.speed) ** 2 * facing
+        return rate
+    index, facing, k = index[which], facing[which], k[which]
+    e = _exposure_of(positions, index, grid, filled, cone_rays(params, seed, frame), params.ray_length)
+    rate[index] = k * (e * params.speed) ** 2 * facing
+    return rate
 
 
 @numba.njit(cache=True, inline="always")
@@ -228,6 +245,7 @@ def _unobstructed(occupancy, origin, h, x, y, z, ux, uy, uz, length):
 
 @numba.njit(cache=True, parallel=True)
 def _exposure(positions, index, occupancy, origin, h, rays, length, out):
+    """Share of the ``rays`` that are unobstructed from each particle ``index[t]``, into ``out[t]``."""
     m = rays.shape[0]
     for t in numba.prange(index.size):
         p = index[t]
@@ -236,4 +254,4 @@ def _exposure(positions, index, occupancy, origin, h, rays, length, out):
             if _unobstructed(occupancy, origin, h, positions[p, 0], positions[p, 1], positions[p, 2],
                              rays[r, 0], rays[r, 1], rays[r, 2], length):
                 open_rays += 1
-        out[p] = open_rays / m
+        out[t] = open_rays / m

@@ -35,7 +35,8 @@ from unerode_cli.volume.vertex_attributes import vertex_values
 
 COMMAND = "sandstone"
 FRAME_COLUMNS = ["frame", "particles", "eroded", "deposited", "exported", "surface", "interlocked_share",
-                 "max_stress_mpa", "mpm_substeps", "mpm_residual", "eroded_fluvial", "discharge_max_m3y",
+                 "max_stress_mpa", "mpm_substeps", "mpm_residual", "mpm_coarse_cost", "eroded_fluvial",
+                 "discharge_max_m3y",
                  "fallen", *(f"{s}_s" for s in STAGES)]
 #: Colour of preview.png per ``--color-by``: the caption of its values.
 PREVIEW_LABELS = {"layer": "layer (bottom = 0; the last is deposits)", "stress": "-tr σ (MPa)",
@@ -46,7 +47,8 @@ def row(stats: FrameStats) -> dict[str, Any]:
     """One row of ``frames.csv``: a frame's counts, stress (MPa), solver and stage times (s)."""
     values = {k: getattr(stats, k) for k in FRAME_COLUMNS[:7]}
     values.update(max_stress_mpa=stats.max_stress / 1e6, mpm_substeps=stats.mpm_substeps,
-                  mpm_residual=stats.mpm_residual, eroded_fluvial=stats.eroded_fluvial,
+                  mpm_residual=stats.mpm_residual, mpm_coarse_cost=stats.mpm_coarse_cost,
+                  eroded_fluvial=stats.eroded_fluvial,
                   discharge_max_m3y=stats.discharge_max, fallen=stats.fallen,
                   **{f"{s}_s": stats.seconds[s] for s in STAGES})
     return values
