@@ -39,6 +39,7 @@ from sandstone_stages import (
     deposition_case,
     fluvial_case,
     normals_case,
+    support_case,
     surface_case,
     wind_case,
 )
@@ -171,5 +172,6 @@ benchmark("sandstone/stage normals near changes 0.9M particles 2 threads")(
 benchmark("sandstone/stage wind abrasion 0.9M particles 2 threads")(wind_case)
 benchmark("sandstone/stage deflation 0.9M particles 2 threads")(deflation_case)
 benchmark("sandstone/stage deposition 2000 eroded 2 threads")(deposition_case)
+benchmark("sandstone/stage block-fall test 0.9M particles 2 threads")(support_case)
 benchmark("sandstone/stage water routing discharge fluvial deposition 1M particles 128³ 2 threads")(
     lambda: fluvial_case(*_block()))
