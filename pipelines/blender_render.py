@@ -69,6 +69,7 @@ def stage(low: Vector, high: Vector, out: str) -> None:
                         math.sin(elevation)))
     bpy.ops.object.camera_add(location=centre + direction * size * 1.7)
     camera = bpy.context.active_object
+    camera.data.clip_start, camera.data.clip_end = size * 1e-3, size * 10.0   # metres to kilometres
     camera.rotation_euler = (centre - camera.location).to_track_quat("-Z", "Y").to_euler()
     bpy.context.scene.camera = camera
     world = bpy.context.scene.world or bpy.data.worlds.new("world")
