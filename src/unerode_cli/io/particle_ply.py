@@ -21,7 +21,7 @@ What each tool reads of a particles file:
 A path ending ``.npz`` gets the same columns as a compressed NumPy archive instead (one array
 per column, ``np.load(path)["x"]``; ``origin`` (3,) float64 and ``comments`` as arrays; the
 normals as int8 in 1/127 steps, which :func:`read_particle_ply` turns back into float32): about
-a third of the PLY's size, for series of snapshots read in Python.
+40 % of the PLY's size, for series of snapshots read in Python.
 """
 
 from __future__ import annotations
