@@ -50,7 +50,7 @@ import numpy as np
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.gltf_mesh import Primitive, check_gltf, glb_bytes, read_glb
-from unerode_cli.io.particle_ply import ORIGIN_COMMENT
+from unerode_cli.io.particle_ply import ORIGIN_COMMENT, PLY_TO_NUMPY, ply_type
 from unerode_cli.io.paths import active_plan, atomic_path, check_output
 from unerode_cli.volume.mesh import Mesh, linear_colours, material_colours, vertex_normals
 from unerode_cli.volume.uv_projection import UV_SCALE, box_uv
@@ -69,11 +69,6 @@ UNKNOWN_MATERIAL = -1
 MATERIAL_ATTRIBUTE = "_MATERIAL"
 _PLY_BASE = (("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4"),
              ("s", "<f4"), ("t", "<f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("material", "<i4"))
-_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "<i2", "int16": "<i2",
-              "ushort": "<u2", "uint16": "<u2", "int": "<i4", "int32": "<i4", "uint": "<u4", "uint32": "<u4",
-              "float": "<f4", "float32": "<f4", "double": "<f8", "float64": "<f8"}
-_PLY_NAMES = {"i1": "char", "u1": "uchar", "<i2": "short", "<u2": "ushort", "<i4": "int", "<u4": "uint",
-              "<f4": "float", "<f8": "double"}
 _FACE = np.dtype([("count", "u1"), ("indices", "<i4", (3,))])
 _ATTRIBUTE_NAME = re.compile(r"[a-z][a-z0-9_]*")
 
@@ -243,7 +238,7 @@ def _write_ply(handle, mesh: Mesh, normals: np.ndarray, uv: np.ndarray,
     faces = np.empty(len(mesh.faces), dtype=_FACE)
     faces["count"] = 3
     faces["indices"] = mesh.faces
-    properties = [f"property {_PLY_NAMES[dtype[name].str.replace('|', '')]} {name}" for name in dtype.names]
+    properties = [f"property {ply_type(dtype[name])} {name}" for name in dtype.names]
     lines = ["ply", "format binary_little_endian 1.0", *(f"comment {c}" for c in header),
              f"element vertex {len(vertices)}", *properties,
              f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
@@ -343,7 +338,7 @@ def _read_ply(path: Path, data: bytes) -> MeshFile:
         words = line.split()
         if words[:1] != ["property"]:
             break
-        properties.append((words[-1], _PLY_TYPES.get(words[1], "")) if words[1] != "list" else ("", ""))
+        properties.append((words[-1], PLY_TO_NUMPY.get(words[1], "")) if words[1] != "list" else ("", ""))
     names = [name for name, _ in properties]
     if ("format binary_little_endian 1.0" not in lines or not {"x", "y", "z"} <= set(names)
             or any(not t for _, t in properties) or "property list uchar int vertex_indices" not in lines):

@@ -33,13 +33,21 @@ import numpy as np
 from unerode_cli.errors import InputError
 from unerode_cli.io.paths import atomic_path
 
-_PLY_TYPES = {np.dtype("<f4"): "float", np.dtype("<i4"): "int", np.dtype("u1"): "uchar"}
-_NUMPY_TYPES = {"float": "<f4", "float32": "<f4", "double": "<f8", "int": "<i4", "int32": "<i4",
-                "uchar": "u1", "uint8": "u1"}
+#: PLY property types → NumPy type strings (little-endian), and back (the first name of each).
+PLY_TO_NUMPY = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "<i2", "int16": "<i2",
+                "ushort": "<u2", "uint16": "<u2", "int": "<i4", "int32": "<i4", "uint": "<u4",
+                "uint32": "<u4", "float": "<f4", "float32": "<f4", "double": "<f8", "float64": "<f8"}
+NUMPY_TO_PLY = {"i1": "char", "u1": "uchar", "<i2": "short", "<u2": "ushort", "<i4": "int", "<u4": "uint",
+                "<f4": "float", "<f8": "double"}
 ORIGIN_COMMENT = "origin"
 #: A ``.npz`` keeps each normal's components as int8 in steps of 1/``NORMAL_STEPS`` (at most
 #: 0.004 off; read back as float32).
 NORMAL_STEPS = 127
+
+
+def ply_type(dtype: np.dtype) -> str:
+    """The PLY property type of a NumPy scalar type (little-endian or single-byte)."""
+    return NUMPY_TO_PLY[np.dtype(dtype).str.replace("|", "")]
 
 
 def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
@@ -78,7 +86,7 @@ def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
     header = ["ply", "format binary_little_endian 1.0",
               f"comment {ORIGIN_COMMENT} {origin[0]!r} {origin[1]!r} {origin[2]!r}",
               *(f"comment {c}" for c in comments), f"element vertex {len(table)}",
-              *(f"property {_PLY_TYPES[values.dtype]} {name}" for name,
+              *(f"property {ply_type(values.dtype)} {name}" for name,
                 values in columns.items()), "end_header"]
     with atomic_path(path) as tmp, open(tmp, "wb") as handle:
         handle.write(("\n".join(header) + "\n").encode("ascii"))
@@ -124,7 +132,7 @@ def read_particle_ply(path: Path) -> tuple[dict[str, np.ndarray], tuple[float, f
         if words[:2] == ["element", "vertex"]:
             count = int(words[2])
         elif words[:1] == ["property"]:
-            fields.append((words[2], _NUMPY_TYPES[words[1]]))
+            fields.append((words[2], PLY_TO_NUMPY[words[1]]))
         elif words[:2] == ["comment", ORIGIN_COMMENT]:
             origin = (float(words[2]), float(words[3]), float(words[4]))
     table = np.frombuffer(data, dtype=fields, count=count, offset=end + len(b"end_header\n"))

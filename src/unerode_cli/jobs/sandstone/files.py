@@ -54,12 +54,14 @@ def row(stats: FrameStats) -> dict[str, Any]:
     return values
 
 
-def write_particles(path: Path, prepared: PreparedSandstone, simulation: Simulation) -> None:
+def write_particles(path: Path, prepared: PreparedSandstone, simulation: Simulation,
+                    surface: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """The particles as a binary PLY: position and normal, viability, stress −tr σ (MPa),
-    erodibility E (1/y, 002 Eq. 2), layer, surface, deposit, interlocked, vegetation."""
+    erodibility E (1/y, 002 Eq. 2), layer, surface, deposit, interlocked, vegetation;
+    ``surface``: :func:`final_surface` of the simulation when already known."""
     p = simulation.particles
     rate = np.where(p.interlocked, simulation.k_s[p.layer], simulation.k_w[p.layer]) * p.erodibility
-    surface, normal = final_surface(simulation)
+    surface, normal = surface if surface is not None else final_surface(simulation)
     write_particle_ply(path, p.positions, normal, {
         "viability": p.viability, "stress": p.stress / 1e6, "erodibility": rate, "layer": p.layer,
         "surface": surface, "deposit": p.deposit, "interlocked": p.interlocked, "vegetation": p.vegetation,
@@ -86,15 +88,16 @@ def write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: lis
     of the sampling (s)."""
     job, source, paths = prepared.job, prepared.source, prepared.paths
     p = simulation.particles
-    write_particles(paths["particles"], prepared, simulation)
-    mesh = _mesh(prepared, simulation) if job.mesh is not None else None
+    surface = final_surface(simulation)
+    write_particles(paths["particles"], prepared, simulation, surface)
+    mesh = write_particle_mesh(paths["mesh"], prepared, simulation) if job.mesh is not None else None
     entry = history_entry(COMMAND, prepared.provenance, job.seed)
     top = _top(source, p)
     append_history(top, entry)
     write_terrain(top, paths["top"])
     values = {"layer": p.layer, "stress": p.stress / 1e6, "viability": p.viability}[job.color_by]
     with atomic_path(paths["preview"]) as tmp:
-        save_particles_preview(p.positions, p.normals, values, tmp, PREVIEW_LABELS[job.color_by],
+        save_particles_preview(p.positions, surface[1], values, tmp, PREVIEW_LABELS[job.color_by],
                                source.lattice.spacing, categorical=job.color_by == "layer",
                                title=f"{source.description}, frame {simulation.frame}")
     write_table(paths["frames"], FRAME_COLUMNS, rows)
@@ -115,11 +118,6 @@ def write_outputs(prepared: PreparedSandstone, simulation: Simulation, rows: lis
     }
     write_json(paths["run"], {**entry, "versions": versions, "threads": numba.get_num_threads(),
                               "statistics": statistics})
-
-
-def _mesh(prepared: PreparedSandstone, simulation: Simulation) -> dict[str, Any]:
-    """Write ``--mesh`` (the final particles' surface); its counts, enclosed volume (m³) and time."""
-    return write_particle_mesh(prepared.paths["mesh"], prepared, simulation)
 
 
 def material_names(prepared: PreparedSandstone) -> list[str]:
