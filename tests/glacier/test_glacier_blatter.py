@@ -190,3 +190,22 @@ def test_thin_ice_on_steep_terrain_converges():
     # 267 when written; 706 since the sliding energy is integrated over the bed's area (a factor
     # √(1 + |∇b|²) of up to 1.4 on these slopes); 212 with the default C = 2e4
     assert solution.iterations < 900
+
+
+def test_a_checkerboard_velocity_costs_its_analytic_strain_energy():
+    """u = A·(−1)^(i+j) on a flat periodic slab with no sliding: at the Gauss points ξ, η = ±1/√3
+    the trilinear element has ∂x u = ±2A/(√3·dx), ∂y u = ±2A/(√3·dy) and ∂z u = 0, so
+    E = V·(B/p)·(|D|² + ε²)^(p/2) with |D|² = 2·(∂x u² + (∂y u / 2)²). A one-point rule at the
+    cells' centres sees no strain rate there (E would be V·(B/p)·ε^p)."""
+    n, dx, dy, thickness, amplitude = 8, 40.0, 25.0, 200.0, 3.0
+    zeta = layer_elevations(np.zeros((n, n)), np.full((n, n), thickness), 4, 1.0)
+    jj, ii = np.mgrid[0:n, 0:n]
+    u = np.broadcast_to(amplitude * (-1.0) ** (ii + jj), zeta.shape).copy()
+    v = np.zeros_like(u)
+    b_visc, p, eps2 = blatter.b_from_glen_a(A), 4.0 / 3.0, 1e-8
+    energy = blatter_energy.energy_gradient(u, v, zeta, np.zeros((n, n)), dx, dy, 0.0, b_visc, p, 1.5,
+                                            RHO * G, eps2, 1e-4, True, np.empty_like(u), np.empty_like(v))
+    ux, uy = 2 * amplitude / (math.sqrt(3) * dx), 2 * amplitude / (math.sqrt(3) * dy)
+    d2 = 2.0 * (ux**2 + (uy / 2) ** 2)
+    volume = n * dx * n * dy * thickness
+    assert energy == pytest.approx(volume * b_visc / p * (d2 + eps2) ** (p / 2), rel=1e-12)

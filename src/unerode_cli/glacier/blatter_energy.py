@@ -2,41 +2,47 @@
 
 Discretisation (001 §4.2 and Appendix A): horizontal velocities (u, v) (m/y) live on the nodes
 of the terrain-following lattice ζ[k, j, i] (``lattice``); every lattice cell, a hexahedron
-with vertical edges between columns (i, i+1) × (j, j+1) and levels (k, k+1), is one linear
-(trilinear) finite element evaluated at its centre (one-point quadrature), with the averaging
-(a) and difference (d) operators of 001 Appendix A:
+with vertical edges between columns (i, i+1) × (j, j+1) and levels (k, k+1), is one trilinear
+(isoparametric) finite element integrated at four points: the 2 × 2 Gauss points
+ξ, η = ±1/√3 of its plan at mid-height. At a point with bilinear weights w (over the four
+corner columns), with the column means m = (f_k + f_k+1)/2 and differences d = f_k+1 − f_k:
 
-    c_t   = a_x a_y d_z ζ                       cell thickness (m)
-    V     = dx·dy·c_t                           cell volume (m³)
-    u_c   = a_x a_y a_z u                       velocity at the centre
-    ∂z u  = (a_x a_y d_z u) / c_t
-    ∂x u  = (d_x a_y a_z u)/dx − (d_x a_y a_z ζ)/dx · ∂z u
-    ∂y u  = (a_x d_y a_z u)/dy − (a_x d_y a_z ζ)/dy · ∂z u
+    c_t   = Σ w·d(ζ)                             thickness of the cell at the point (m)
+    dV    = dx·dy·c_t / 4                        the point's share of the volume (m³)
+    u_q   = Σ w·m(u)                             velocity at the point
+    ∂z u  = Σ w·d(u) / c_t
+    ∂x u  = ∂ξ[Σ w·m(u)]/dx − a_x·∂z u,  a_x = ∂ξ[Σ w·m(ζ)]/dx   (∂y alike)
 
-The horizontal gradients are the chain rule of the terrain-following coordinates, i.e. the
-exact gradient of the isoparametric trilinear element at its centre. (001 Eq. 9–10 as
-printed do not vanish for a uniform velocity, so they are not used verbatim. The volume is the
-exact volume dx·dy·c_t of the cell rather than 001's inclined face area f_a times c_t.)
+i.e. the exact gradient of the element at the point by the chain rule of the terrain-following
+coordinates. 001 Appendix A evaluates each cell at its centre alone (one point, the averaging
+operators a_x a_y a_z); that one-point rule leaves the checkerboard ("hourglass") patterns of
+the velocity, e.g. (−1)^(i+j) over the nodes, without any strain rate, so they cost no energy:
+E then has many minimisers, and the nearly checkerboard patterns, which cost almost none,
+are the ones an iterative solver reduces slowest. Four points see every pattern but a uniform
+velocity. (001 Eq. 9–10 as printed do not vanish for a uniform velocity, so they are not used
+verbatim.)
 
 Energy (001 Eq. 7), velocities in m/y and stresses in Pa, so in Pa·m³/y:
 
-    E = Σ_cells V·[ (B/p)·(|D|² + ε²)^(p/2) + ρg·(∂x s·u_c + ∂y s·v_c) ]
-      + Σ_basal faces dx·dy·√(1 + |∇b|²)·(C/σ)·(|u_b|_M² + u_ε²)^(σ/2)
+    E = Σ_points dV·[ (B/p)·(|D|² + ε²)^(p/2) + ρg·(∂x s·u_q + ∂y s·v_q) ]
+      + Σ_basal points dx·dy/4·√(1 + |∇b|²)·(C/σ)·(|u_b|_M² + u_ε²)^(σ/2)
 
 with the first-order strain-rate tensor D (001 §4.1; D_zz = −D_xx − D_yy)
 
     |D|² = D:D = 2·(D_xx² + D_yy² + D_xx·D_yy + D_xy² + D_xz² + D_yz²),
     D_xx = ∂x u, D_yy = ∂y v, D_xy = (∂y u + ∂x v)/2, D_xz = ∂z u/2, D_yz = ∂z v/2,
 
-∂x s, ∂y s the surface gradient at the cell centre, u_b = a_x a_y u at the bed and the bed-
-tangential norm |u_b|_M² = u_b² + v_b² + (u_b·∂x b + v_b·∂y b)². ε (1/y) and u_ε (m/y) are
-small regularisations that make the energy twice differentiable at zero strain rate and
-zero sliding. The sliding term is integrated over the area of the bed (001 Eq. 7's dS over Γ),
-dx·dy·√(1 + |∇b|²) per face, not over its plan view dx·dy: on an inclined slab this gives the
-exact Weertman speed |u_b| = (ρgH·sin α·cos α / C)^(1/(σ−1)) along the bed (H vertical), where
-the plan-view area would slide 1/cos²α faster for σ = 3/2 (×1.33 on 30°, ×2.4 on 50°: thin ice on
-steep walls, where real DEMs have it). ``tilt`` = tan(background slope) is a uniform inclination
-along +x: the true elevations are ζ − x·tilt, which enters ∂x ζ, ∂x s and ∂x b.
+∂x s, ∂y s the gradient of the ice surface (the lattice's top level) at the point, u_b the
+bilinear basal velocity at the bed's own Gauss points (2 × 2 a basal face) and the bed-
+tangential norm |u_b|_M² = u_b² + v_b² + (u_b·∂x b + v_b·∂y b)². ε (1/y) and u_ε (m/y) are small
+regularisations that make the energy twice differentiable at zero strain rate and zero sliding.
+The sliding term is integrated over the area of the bed (001 Eq. 7's dS over Γ), dx·dy·√(1 +
+|∇b|²) per face (summed over its points), not over its plan view dx·dy: on an inclined slab this
+gives the exact Weertman speed |u_b| = (ρgH·sin α·cos α / C)^(1/(σ−1)) along the bed (H
+vertical), where the plan-view area would slide 1/cos²α faster for σ = 3/2 (×1.33 on 30°, ×2.4
+on 50°: thin ice on steep walls, where real DEMs have it). ``tilt`` = tan(background slope) is a
+uniform inclination along +x: the true elevations are ζ − x·tilt, which enters ∂x ζ, ∂x s and ∂x
+b.
 
 Domain edges: ``periodic`` wraps cells around both axes (a grid of nx columns has nx cells
 along x), otherwise the edge faces are stress free (nx − 1 cells).
@@ -102,75 +108,155 @@ def basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt):
     return bx, by, ub, vb, ub * bx + vb * by
 
 
+#: In-plane Gauss points of a lattice cell, ξ = η = ±1/√3 on [−1, 1] (2 × 2 Gauss–Legendre).
+GAUSS = 1.0 / math.sqrt(3.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _power(x, e):
+    """x**e for x > 0, by cube or square roots for Glen's n = 3 (e = −1/3) and σ = 3/2
+    (e = −1/4), several times cheaper than the general power."""
+    if e == GLEN3_EXPONENT:
+        return 1.0 / np.cbrt(x)
+    if e == -0.25:
+        return 1.0 / math.sqrt(math.sqrt(x))
+    return x ** e
+
+
+#: −1/3, the exponent p/2 − 1 of Glen's n = 3 (p = 4/3) as the solver computes it.
+GLEN3_EXPONENT = 0.5 * (1.0 + 1.0 / 3.0) - 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def gauss_weights(q):
+    """Bilinear weights of the in-plane Gauss point q (0..3) of a cell: along x (w_x0, w_x1)
+    and y (w_y0, w_y1), each pair summing to 1."""
+    xi = GAUSS if q & 1 else -GAUSS
+    eta = GAUSS if q & 2 else -GAUSS
+    wx1 = 0.5 * (1.0 + xi)
+    wy1 = 0.5 * (1.0 + eta)
+    return 1.0 - wx1, wx1, 1.0 - wy1, wy1
+
+
 @numba.njit(cache=True, inline="always")
 def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps2):
-    """Energy of the cells (k, j, ·) of one row of one layer; their gradient added to gu, gv
-    (rows j and j + 1, wrapped)."""
+    """Energy of the cells (k, j, ·) of one row of one layer, four in-plane Gauss points a
+    cell at mid-height; their gradient added to gu, gv (rows j and j + 1, wrapped).
+
+    Each corner column (a = 00, 01, 10, 11 for (j, i), (j, i1), (j1, i), (j1, i1)) enters
+    through its mid-height mean m_a = (f_bottom + f_top)/2 and its difference
+    d_a = f_top − f_bottom; the gradient is accumulated on (m_a, d_a) and passed to the
+    nodes as ∂/∂f_bottom = ½∂/∂m − ∂/∂d, ∂/∂f_top = ½∂/∂m + ∂/∂d.
+
+    Kept whole: a cell's four points add into sixteen scalar accumulators held in registers;
+    parts of it would pass them back and forth as tuples inside the threaded row loop."""
     nz, ny, nx = u.shape
     area = dx * dy
     energy = 0.0
     half_p = 0.5 * p
+    top = nz - 1
     j1 = j + 1 if j + 1 < ny else 0
     rdx, rdy = 1.0 / dx, 1.0 / dy
     for i in range(ncx):
         i1 = i + 1 if i + 1 < nx else 0
-        ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
-        if ct <= 0.0:
+        h00 = zeta[k + 1, j, i] - zeta[k, j, i]
+        h01 = zeta[k + 1, j, i1] - zeta[k, j, i1]
+        h10 = zeta[k + 1, j1, i] - zeta[k, j1, i]
+        h11 = zeta[k + 1, j1, i1] - zeta[k, j1, i1]
+        if h00 + h01 + h10 + h11 <= 0.0:
             continue
-        rct = 1.0 / ct
-        sx, sy = surface_slope(zeta, j, i, j1, i1, rdx, rdy, tilt)
+        z00 = 0.5 * (zeta[k + 1, j, i] + zeta[k, j, i])
+        z01 = 0.5 * (zeta[k + 1, j, i1] + zeta[k, j, i1])
+        z10 = 0.5 * (zeta[k + 1, j1, i] + zeta[k, j1, i])
+        z11 = 0.5 * (zeta[k + 1, j1, i1] + zeta[k, j1, i1])
+        s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
+        mu00, du00 = 0.5 * (u[k, j, i] + u[k + 1, j, i]), u[k + 1, j, i] - u[k, j, i]
+        mu01, du01 = 0.5 * (u[k, j, i1] + u[k + 1, j, i1]), u[k + 1, j, i1] - u[k, j, i1]
+        mu10, du10 = 0.5 * (u[k, j1, i] + u[k + 1, j1, i]), u[k + 1, j1, i] - u[k, j1, i]
+        mu11, du11 = 0.5 * (u[k, j1, i1] + u[k + 1, j1, i1]), u[k + 1, j1, i1] - u[k, j1, i1]
+        mv00, dv00 = 0.5 * (v[k, j, i] + v[k + 1, j, i]), v[k + 1, j, i] - v[k, j, i]
+        mv01, dv01 = 0.5 * (v[k, j, i1] + v[k + 1, j, i1]), v[k + 1, j, i1] - v[k, j, i1]
+        mv10, dv10 = 0.5 * (v[k, j1, i] + v[k + 1, j1, i]), v[k + 1, j1, i] - v[k, j1, i]
+        mv11, dv11 = 0.5 * (v[k, j1, i1] + v[k + 1, j1, i1]), v[k + 1, j1, i1] - v[k, j1, i1]
+        gmu00 = gmu01 = gmu10 = gmu11 = gdu00 = gdu01 = gdu10 = gdu11 = 0.0
+        gmv00 = gmv01 = gmv10 = gmv11 = gdv00 = gdv01 = gdv10 = gdv11 = 0.0
+        for q in range(4):
+            wx0, wx1, wy0, wy1 = gauss_weights(q)
+            n00, n01, n10, n11 = wy0 * wx0, wy0 * wx1, wy1 * wx0, wy1 * wx1
+            ct = n00 * h00 + n01 * h01 + n10 * h10 + n11 * h11
+            rct = 1.0 / ct
+            ax = (wy0 * (z01 - z00) + wy1 * (z11 - z10)) * rdx - tilt
+            ay = (wx0 * (z10 - z00) + wx1 * (z11 - z01)) * rdy
+            sx = (wy0 * (s01 - s00) + wy1 * (s11 - s10)) * rdx - tilt
+            sy = (wx0 * (s10 - s00) + wx1 * (s11 - s01)) * rdy
+            uz = (n00 * du00 + n01 * du01 + n10 * du10 + n11 * du11) * rct
+            vz = (n00 * dv00 + n01 * dv01 + n10 * dv10 + n11 * dv11) * rct
+            ux = (wy0 * (mu01 - mu00) + wy1 * (mu11 - mu10)) * rdx - ax * uz
+            vx = (wy0 * (mv01 - mv00) + wy1 * (mv11 - mv10)) * rdx - ax * vz
+            uy = (wx0 * (mu10 - mu00) + wx1 * (mu11 - mu01)) * rdy - ay * uz
+            vy = (wx0 * (mv10 - mv00) + wx1 * (mv11 - mv01)) * rdy - ay * vz
+            uc = n00 * mu00 + n01 * mu01 + n10 * mu10 + n11 * mu11
+            vc = n00 * mv00 + n01 * mv01 + n10 * mv10 + n11 * mv11
 
-        ub00, ub01, ub10, ub11 = u[k, j, i], u[k, j, i1], u[k, j1, i], u[k, j1, i1]
-        ut00, ut01, ut10, ut11 = u[k + 1, j, i], u[k + 1, j, i1], u[k + 1, j1, i], u[k + 1, j1, i1]
-        vb00, vb01, vb10, vb11 = v[k, j, i], v[k, j, i1], v[k, j1, i], v[k, j1, i1]
-        vt00, vt01, vt10, vt11 = v[k + 1, j, i], v[k + 1, j, i1], v[k + 1, j1, i], v[k + 1, j1, i1]
+            dxy = 0.5 * (uy + vx)
+            d2 = 2.0 * (ux * ux + vy * vy + ux * vy + dxy * dxy + 0.25 * (uz * uz + vz * vz)) + eps2
+            vol = 0.25 * area * ct
+            power = _power(d2, half_p - 1.0)  # |D|^p = |D|^(p−2)·|D|²
+            energy += vol * (b_visc / p * power * d2 + rho_g * (sx * uc + sy * vc))
 
-        uz = 0.25 * ((ut00 + ut01 + ut10 + ut11) - (ub00 + ub01 + ub10 + ub11)) * rct
-        vz = 0.25 * ((vt00 + vt01 + vt10 + vt11) - (vb00 + vb01 + vb10 + vb11)) * rct
-        ux = 0.25 * ((ub01 - ub00) + (ub11 - ub10) + (ut01 - ut00) + (ut11 - ut10)) * rdx - ax * uz
-        vx = 0.25 * ((vb01 - vb00) + (vb11 - vb10) + (vt01 - vt00) + (vt11 - vt10)) * rdx - ax * vz
-        uy = 0.25 * ((ub10 - ub00) + (ub11 - ub01) + (ut10 - ut00) + (ut11 - ut01)) * rdy - ay * uz
-        vy = 0.25 * ((vb10 - vb00) + (vb11 - vb01) + (vt10 - vt00) + (vt11 - vt01)) * rdy - ay * vz
-        uc = 0.125 * (ub00 + ub01 + ub10 + ub11 + ut00 + ut01 + ut10 + ut11)
-        vc = 0.125 * (vb00 + vb01 + vb10 + vb11 + vt00 + vt01 + vt10 + vt11)
-
-        dxy = 0.5 * (uy + vx)
-        d2 = 2.0 * (ux * ux + vy * vy + ux * vy + dxy * dxy + 0.25 * (uz * uz + vz * vz)) + eps2
-        vol = area * ct
-        power = d2 ** (half_p - 1.0)  # one power per cell: |D|^p = |D|^(p−2)·|D|²
-        energy += vol * (b_visc / p * power * d2 + rho_g * (sx * uc + sy * vc))
-
-        w = vol * 0.5 * b_visc * power  # ∂E/∂|D|²
-        g_ux = w * 2.0 * (2.0 * ux + vy)
-        g_vy = w * 2.0 * (2.0 * vy + ux)
-        g_uy = w * 2.0 * dxy
-        g_vx = g_uy
-        g_uz = w * uz - ax * g_ux - ay * g_uy
-        g_vz = w * vz - ax * g_vx - ay * g_vy
-        # per-corner weights: ±1/(4dx) along x, ±1/(4dy) along y, ±1/(4c_t) along z, 1/8 mean
-        cxu, cyu, czu, c0u = 0.25 * g_ux * rdx, 0.25 * g_uy * rdy, 0.25 * g_uz * rct, 0.125 * vol * rho_g * sx
-        cxv, cyv, czv, c0v = 0.25 * g_vx * rdx, 0.25 * g_vy * rdy, 0.25 * g_vz * rct, 0.125 * vol * rho_g * sy
-        for c in range(2):
-            kk = k + c
-            sz = 2 * c - 1
-            gu[kk, j, i] += c0u - cxu - cyu + sz * czu
-            gu[kk, j, i1] += c0u + cxu - cyu + sz * czu
-            gu[kk, j1, i] += c0u - cxu + cyu + sz * czu
-            gu[kk, j1, i1] += c0u + cxu + cyu + sz * czu
-            gv[kk, j, i] += c0v - cxv - cyv + sz * czv
-            gv[kk, j, i1] += c0v + cxv - cyv + sz * czv
-            gv[kk, j1, i] += c0v - cxv + cyv + sz * czv
-            gv[kk, j1, i1] += c0v + cxv + cyv + sz * czv
+            w = vol * 0.5 * b_visc * power  # ∂E/∂|D|²
+            g_ux = w * 2.0 * (2.0 * ux + vy)
+            g_vy = w * 2.0 * (2.0 * vy + ux)
+            g_uy = w * 2.0 * dxy
+            g_vx = g_uy
+            gzu = (w * uz - ax * g_ux - ay * g_uy) * rct
+            gzv = (w * vz - ax * g_vx - ay * g_vy) * rct
+            gxu, gyu, gcu = g_ux * rdx, g_uy * rdy, vol * rho_g * sx
+            gxv, gyv, gcv = g_vx * rdx, g_vy * rdy, vol * rho_g * sy
+            gmu00 += n00 * gcu - wy0 * gxu - wx0 * gyu
+            gmu01 += n01 * gcu + wy0 * gxu - wx1 * gyu
+            gmu10 += n10 * gcu - wy1 * gxu + wx0 * gyu
+            gmu11 += n11 * gcu + wy1 * gxu + wx1 * gyu
+            gmv00 += n00 * gcv - wy0 * gxv - wx0 * gyv
+            gmv01 += n01 * gcv + wy0 * gxv - wx1 * gyv
+            gmv10 += n10 * gcv - wy1 * gxv + wx0 * gyv
+            gmv11 += n11 * gcv + wy1 * gxv + wx1 * gyv
+            gdu00 += n00 * gzu
+            gdu01 += n01 * gzu
+            gdu10 += n10 * gzu
+            gdu11 += n11 * gzu
+            gdv00 += n00 * gzv
+            gdv01 += n01 * gzv
+            gdv10 += n10 * gzv
+            gdv11 += n11 * gzv
+        gu[k, j, i] += 0.5 * gmu00 - gdu00
+        gu[k + 1, j, i] += 0.5 * gmu00 + gdu00
+        gu[k, j, i1] += 0.5 * gmu01 - gdu01
+        gu[k + 1, j, i1] += 0.5 * gmu01 + gdu01
+        gu[k, j1, i] += 0.5 * gmu10 - gdu10
+        gu[k + 1, j1, i] += 0.5 * gmu10 + gdu10
+        gu[k, j1, i1] += 0.5 * gmu11 - gdu11
+        gu[k + 1, j1, i1] += 0.5 * gmu11 + gdu11
+        gv[k, j, i] += 0.5 * gmv00 - gdv00
+        gv[k + 1, j, i] += 0.5 * gmv00 + gdv00
+        gv[k, j, i1] += 0.5 * gmv01 - gdv01
+        gv[k + 1, j, i1] += 0.5 * gmv01 + gdv01
+        gv[k, j1, i] += 0.5 * gmv10 - gdv10
+        gv[k + 1, j1, i] += 0.5 * gmv10 + gdv10
+        gv[k, j1, i1] += 0.5 * gmv11 - gdv11
+        gv[k + 1, j1, i1] += 0.5 * gmv11 + gdv11
     return energy
 
 
 @numba.njit(cache=True, inline="always")
 def _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2):
-    """Energy of the basal faces; their gradient added to gu, gv (level 0)."""
+    """Energy of the basal faces, four Gauss points a face; their gradient added to gu, gv
+    (level 0)."""
     nz, ny, nx = u.shape
     area = dx * dy
     energy = 0.0
     half_s = 0.5 * sigma
+    rdx, rdy = 1.0 / dx, 1.0 / dy
     for j in range(ncy):
         j1 = j + 1 if j + 1 < ny else 0
         for i in range(ncx):
@@ -178,22 +264,41 @@ def _sliding(u, v, zeta, c_face, gu, gv, ncy, ncx, dx, dy, tilt, sigma, ureg2):
             if cf <= 0.0:
                 continue
             i1 = i + 1 if i + 1 < nx else 0
-            bx, by, ub, vb, t = basal_face(zeta, u, v, j, i, j1, i1, dx, dy, tilt)
-            m2 = ub * ub + vb * vb + t * t + ureg2
-            face = area * math.sqrt(1.0 + bx * bx + by * by)  # the bed's area dS, not its plan view
-            power = m2 ** (half_s - 1.0)
-            energy += face * cf / sigma * power * m2
-            ws = face * cf * 0.5 * power  # ∂E/∂|u_b|_M²
-            gub = 0.25 * ws * 2.0 * (ub + t * bx)
-            gvb = 0.25 * ws * 2.0 * (vb + t * by)
-            gu[0, j, i] += gub
-            gu[0, j, i1] += gub
-            gu[0, j1, i] += gub
-            gu[0, j1, i1] += gub
-            gv[0, j, i] += gvb
-            gv[0, j, i1] += gvb
-            gv[0, j1, i] += gvb
-            gv[0, j1, i1] += gvb
+            z00, z01, z10, z11 = zeta[0, j, i], zeta[0, j, i1], zeta[0, j1, i], zeta[0, j1, i1]
+            u00, u01, u10, u11 = u[0, j, i], u[0, j, i1], u[0, j1, i], u[0, j1, i1]
+            v00, v01, v10, v11 = v[0, j, i], v[0, j, i1], v[0, j1, i], v[0, j1, i1]
+            gu00 = gu01 = gu10 = gu11 = gv00 = gv01 = gv10 = gv11 = 0.0
+            for q in range(4):
+                wx0, wx1, wy0, wy1 = gauss_weights(q)
+                n00, n01, n10, n11 = wy0 * wx0, wy0 * wx1, wy1 * wx0, wy1 * wx1
+                bx = (wy0 * (z01 - z00) + wy1 * (z11 - z10)) * rdx - tilt
+                by = (wx0 * (z10 - z00) + wx1 * (z11 - z01)) * rdy
+                ub = n00 * u00 + n01 * u01 + n10 * u10 + n11 * u11
+                vb = n00 * v00 + n01 * v01 + n10 * v10 + n11 * v11
+                t = ub * bx + vb * by
+                m2 = ub * ub + vb * vb + t * t + ureg2
+                face = 0.25 * area * math.sqrt(1.0 + bx * bx + by * by)  # the bed's area dS
+                power = _power(m2, half_s - 1.0)
+                energy += face * cf / sigma * power * m2
+                ws = face * cf * power  # 2·∂E/∂|u_b|_M²
+                gub = ws * (ub + t * bx)
+                gvb = ws * (vb + t * by)
+                gu00 += n00 * gub
+                gu01 += n01 * gub
+                gu10 += n10 * gub
+                gu11 += n11 * gub
+                gv00 += n00 * gvb
+                gv01 += n01 * gvb
+                gv10 += n10 * gvb
+                gv11 += n11 * gvb
+            gu[0, j, i] += gu00
+            gu[0, j, i1] += gu01
+            gu[0, j1, i] += gu10
+            gu[0, j1, i1] += gu11
+            gv[0, j, i] += gv00
+            gv[0, j, i1] += gv01
+            gv[0, j1, i] += gv10
+            gv[0, j1, i1] += gv11
     return energy
 
 
@@ -346,32 +451,40 @@ def objective(x, dof, zeta, c_face, dx, dy, tilt, b_visc, p, sigma, rho_g, eps2,
 @numba.njit(cache=True)
 def driving_force(dof, zeta, dx, dy, tilt, rho_g, periodic, n):
     """∇E(0) with respect to the unknowns (float64[2n]): the gravitational driving term
-    ρg·V·∇s/8 of every cell at its eight corners, the only part of the gradient that is not
+    ρg·∇s·u of every cell at its four Gauss points, the only part of the gradient that is not
     zero at u = 0 (the viscous and sliding terms vanish there). The same numbers as
     ``objective(0, …)[1]`` without its powers."""
     nz, ny, nx = zeta.shape
+    top = nz - 1
     ncx = nx if periodic else nx - 1
     ncy = ny if periodic else ny - 1
     gu = np.zeros(zeta.shape)
     gv = np.zeros(zeta.shape)
+    area = dx * dy
     for k in range(nz - 1):
         for j in range(ncy):
             j1 = j + 1 if j + 1 < ny else 0
             for i in range(ncx):
                 i1 = i + 1 if i + 1 < nx else 0
-                ct, ax, ay = cell_geometry(zeta, k, j, i, j1, i1, dx, dy, tilt)
-                if ct <= 0.0:
+                h = (zeta[k + 1, j, i] - zeta[k, j, i], zeta[k + 1, j, i1] - zeta[k, j, i1],
+                     zeta[k + 1, j1, i] - zeta[k, j1, i], zeta[k + 1, j1, i1] - zeta[k, j1, i1])
+                if h[0] + h[1] + h[2] + h[3] <= 0.0:
                     continue
-                sx, sy = surface_slope(zeta, j, i, j1, i1, 1.0 / dx, 1.0 / dy, tilt)
-                vol = dx * dy * ct
-                c0u, c0v = vol * rho_g * sx / 8, vol * rho_g * sy / 8
-                for kk in range(k, k + 2):
-                    gu[kk, j, i] += c0u
-                    gu[kk, j, i1] += c0u
-                    gu[kk, j1, i] += c0u
-                    gu[kk, j1, i1] += c0u
-                    gv[kk, j, i] += c0v
-                    gv[kk, j, i1] += c0v
-                    gv[kk, j1, i] += c0v
-                    gv[kk, j1, i1] += c0v
+                s00, s01, s10, s11 = zeta[top, j, i], zeta[top, j, i1], zeta[top, j1, i], zeta[top, j1, i1]
+                for q in range(4):
+                    wx0, wx1, wy0, wy1 = gauss_weights(q)
+                    nw = (wy0 * wx0, wy0 * wx1, wy1 * wx0, wy1 * wx1)
+                    ct = nw[0] * h[0] + nw[1] * h[1] + nw[2] * h[2] + nw[3] * h[3]
+                    sx = (wy0 * (s01 - s00) + wy1 * (s11 - s10)) / dx - tilt
+                    sy = (wx0 * (s10 - s00) + wx1 * (s11 - s01)) / dy
+                    cu, cv = 0.125 * area * ct * rho_g * sx, 0.125 * area * ct * rho_g * sy
+                    for kk in range(k, k + 2):
+                        gu[kk, j, i] += nw[0] * cu
+                        gu[kk, j, i1] += nw[1] * cu
+                        gu[kk, j1, i] += nw[2] * cu
+                        gu[kk, j1, i1] += nw[3] * cu
+                        gv[kk, j, i] += nw[0] * cv
+                        gv[kk, j, i1] += nw[1] * cv
+                        gv[kk, j1, i] += nw[2] * cv
+                        gv[kk, j1, i1] += nw[3] * cv
     return restrict(gu, gv, dof, n)
