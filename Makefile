@@ -8,7 +8,7 @@ SAMPLE := sample_dems/eroded_utm32n_30m.tif
 # real chronologies (LR04 δ18O stack, Spratt & Lisiecki 2016 sea level), beside the checkout
 DATA   ?= ../shared/data
 
-.PHONY: venv install test test-all demo bench bench-memory lint clean
+.PHONY: venv install test test-all demo bench bench-memory lint clean docs gallery
 
 venv: $(STAMP)
 
@@ -54,6 +54,20 @@ bench: $(STAMP)
 # peak memory of whole commands at 8192² and 16 384² (about 45 minutes; bench/memory.md)
 bench-memory: $(STAMP)
 	$(BIN)/python bench/memory.py
+
+# the documentation site (MkDocs Material): site/index.html, readable offline; warnings are errors
+DOCS_STAMP := $(VENV)/.docs-installed
+
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	touch $(DOCS_STAMP)
+
+# the gallery's pictures and page (docs/gallery/entries.yaml → docs/gallery/generated/)
+gallery: $(STAMP)
+	DATA=$(DATA) $(BIN)/python docs/gallery/build_gallery.py
+
+docs: $(DOCS_STAMP) gallery
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench
