@@ -1,4 +1,4 @@
-"""Velocity error of the prognostic Blatter–Pattyn solves against fully converged ones (issue 46 item 1).
+"""Velocity error of the prognostic Blatter–Pattyn solves against fully converged ones.
 
 Real-DEM glacier states are reached by a coupled run (``coupled.Stepping``, multi-scale transport,
 erosion on, default parameters; the spin-up's own solves use ``SPINUP_RTOL`` with no energy rule);
@@ -26,26 +26,23 @@ Usage: ``NUMBA_NUM_THREADS=1 .venv/bin/python bench/glacier_convergence.py [--qu
 [--reference-rtol R]``; prints one line per (state, rule) and the worst errors per rule.
 ``--coupled-step`` times bench_glacier's 256²×10 coupled step under the old and the default rule.
 
-Measured (6–7 December 2026, 2 cores shared with other jobs, load 4–5; ``--reference-rtol 1e-4``:
-a reference to 1e-6 had not ended after 6.5 min on the first state, and on the 64² window of
-``tests/glacier/test_glacier_convergence.py`` a solve to 1e-6 stalls at 4.5e-6, while its
-solve to 1e-4 lies 0.06 % / 0.26 % from its solve to 1e-5). Surface / sliding error, iterations:
+Measured (one numba thread, 2 cores shared with other jobs; references to 1e-6 — two of them
+stall at 1.6e-5 and 3.7e-6). Surface / sliding error in per cent, L-BFGS iterations:
 
-    state                  0.03+3e-3 (old)     1e-2           3e-3           1e-3
-    Grindelwald  300 y     1.9/2.2 %   6 it   1.2/1.7  43    1.0/1.3 111    0.7/0.9 265
-    Grindelwald 1000 y     2.3/2.4 %   2 it   1.6/1.7  97    1.4/1.5 242    1.0/1.2 547
-    Ötztal       300 y     3.5/4.7 %   6 it   3.0/4.4  24    2.8/4.1  72    2.2/3.1 205
-    Ötztal       800 y     1.6/2.1 %   2 it   1.1/1.7  23    0.9/1.6  60    0.6/0.9 200
-    plateau      300 y     2.3/3.5 %   6 it   1.8/3.0  18    1.5/2.5  40    1.1/1.7 110
-    plateau     1000 y     1.9/2.3 %   2 it   1.4/1.9  22    1.0/1.6  54    0.8/1.0 126
+    state                  0.03 + energy 3e-3   0.03          1e-2          3e-3          1e-3
+    Grindelwald  300 y     0.35/0.34   6 it     0.10/0.10  9  0.05/0.05 11  0.02/0.02 14  0.01/0.01 17
+    Grindelwald 1000 y     0.65/0.69   2 it     0.02/0.02 15  0.00/0.00 23  0.00/0.00 30  0.00/0.00 39
+    Ötztal       300 y     0.34/0.34   6 it     0.16/0.16  8  0.07/0.07 10  0.03/0.03 13  0.02/0.02 17
+    Ötztal       800 y     0.78/0.82   2 it     0.03/0.02 13  0.01/0.01 19  0.00/0.00 34  0.00/0.00 34
+    plateau      300 y     0.29/0.32   6 it     0.20/0.22  7  0.05/0.05 11  0.02/0.03 14  0.01/0.01 21
+    plateau     1000 y     0.74/0.75   2 it     0.02/0.02 13  0.00/0.00 20  0.00/0.00 27  0.00/0.00 34
 
-The old rule's solves ended at residuals of 0.06–0.88 (the energy rule); 1e-2 + energy_rtol 1e-3
-ended the same. No rule meets 2 % on the Ötztal state at 300 y; 1e-3 (the default) meets it on
-the five others.
+Every rule meets 2 % on every state; the default 1e-3 keeps within 0.02 %. The references take
+50–81 iterations from the 1e-3 solves. (With the one-point quadrature of 001 Appendix A, which
+has zero-energy checkerboard modes, the same states needed 110–547 iterations to 1e-3 and kept
+errors of 0.6–3.1 %; ``blatter_energy``.)
 
-Coupled step (256² ice cap, dt 10 y, same set-up for both rules): old rule 3.2–3.8 s a step
-(6 iterations, residual 0.15–0.21: unconverged); rtol 1e-3: 125 s and 244 s (198 and 368
-iterations), on the loaded machine.
+Coupled step (256² ice cap, dt 10 y, 2 threads, ``--coupled-step``): see bench/results.md.
 """
 
 from __future__ import annotations

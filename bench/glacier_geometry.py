@@ -1,4 +1,4 @@
-"""Ice geometry and map-edge figures of a `glaciate` run (issue targets of 001's valley glaciers).
+"""Ice geometry and map-edge figures of a `glaciate` run (against measured valley glaciers).
 
 Runs ``unerode-cli glaciate DEM ... --ice --velocity --sliding`` (the options after ``--`` are
 passed on) and prints, as JSON:

@@ -1,15 +1,14 @@
-"""The prognostic velocity solves end at a tolerance whose error is measured (issue 46 item 1).
+"""The prognostic velocity solves end at a tolerance whose error is measured.
 
 A 64 × 64 window (46 m cells) of the Grindelwald DEM, the upper basin of the plausibility test,
-under an ELA of 2900 m for 300 years in steps of 50 y with the default parameters: every solve
-of the run must meet ``coupled.FLOW_RTOL``, and at the state reached, the velocities solved as
-the next step solves them (warm-started from the previous step's, to ``FLOW_RTOL``, no energy
-rule) must lie within 2 % (relative L2 of the velocity vectors over the cells with more than
-1 m of ice) of a solve to 1e-5 (``glaciate --diagnostic``'s tolerance; a solve to 1e-6 stalls at
-4.5e-6 on this state), at the surface and at the bed. Measured after a spin-up at 1e-2: 0.3 %
-and 1.2 % (0.7 % and 1.7 % at a tolerance of 3e-3, 1.3 % and 2.0 % at 1e-2); 370 s on 2 busy
-cores. ``bench/glacier_convergence.py`` measures the same on larger crops of Grindelwald, Ötztal
-and a plateau. Slow: ``pytest -m slow``.
+under an ELA of 2900 m for 300 years in steps of 50 y with the default parameters: every solve of
+the run must meet ``coupled.FLOW_RTOL``, and at the state reached, the velocities solved as the
+next step solves them (warm-started from the previous step's, to ``FLOW_RTOL``, no energy rule)
+must lie within 0.5 % (relative L2 of the velocity vectors over the cells
+with more than 1 m of ice) of a solve to 1e-5 (``glaciate --diagnostic``'s tolerance; the solve
+goes to 7.7e-6 here), at the surface and at the bed. Measured: 0.003 % at the surface and at the
+bed (21 iterations to 1e-3, 26 more to 1e-5); 54 s on one thread. ``bench/glacier_convergence.py``
+measures the same on larger crops of Grindelwald, Ötztal and a plateau. Slow: ``pytest -m slow``.
 """
 
 from __future__ import annotations
@@ -56,5 +55,5 @@ def test_prognostic_velocities_lie_within_two_percent_of_converged_ones() -> Non
     assert flow.converged and reference.converged
     ice = state.thickness > 1.0
     assert ice.sum() > 500
-    assert _relative_l2(flow.surface, reference.surface, ice) <= 0.02
-    assert _relative_l2(flow.basal, reference.basal, ice) <= 0.02
+    assert _relative_l2(flow.surface, reference.surface, ice) <= 0.005
+    assert _relative_l2(flow.basal, reference.basal, ice) <= 0.005

@@ -1,4 +1,4 @@
-"""The fast Blatter–Pattyn solve (issue #20): threads that change no bit, the coarse-grid
+"""The fast Blatter–Pattyn solve: threads that change no bit, the coarse-grid
 correction (multigrid) reaching the single-lattice solution, and its energy stopping rule keeping
 every coupled step's energy within 1 % of a converged solve."""
 

@@ -1,4 +1,4 @@
-"""Plausibility of the default glacier physics on a real alpine DEM (issue #20).
+"""Plausibility of the default glacier physics on a real alpine DEM.
 
 A 64 × 64 window (2.9 km square, 46 m cells) of the Grindelwald DEM (../shared/data), the upper
 basin of a glacier in the Wetterhorn–Schreckhorn area, under an ELA of 2900 m (about today's)
