@@ -31,8 +31,9 @@ CLI = str(Path(sys.executable).with_name("unerode-cli"))
 
 
 #: The memory cap (GiB, ``UNERODE_MEMORY_GIB``) under which the implicit step takes its lean
-#: layout at 8192² (its ordered layout needs 8 GiB more there).
-LEAN_CAP_GIB = "6"
+#: layout at 8192²: above erode's estimate (0.3 GiB + 67 M cells × its bytes per cell), below
+#: what the ordered layout needs when it is chosen (about 2 GiB held by then, 4 GiB more).
+LEAN_CAP_GIB = "5.5"
 
 
 def cases(size: int, big: int) -> dict[str, tuple[str, list[str]]]:

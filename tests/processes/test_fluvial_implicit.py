@@ -194,3 +194,19 @@ def test_the_lean_layout_gives_the_ordered_step(method: str, n: float, k_d: floa
     scale = np.abs(ordered.change.dh).max()
     assert np.abs(lean.change.dh - ordered.change.dh).max() <= 1e-6 * scale
     assert lean.change.budget.outflux == pytest.approx(ordered.change.budget.outflux, rel=1e-6)
+
+
+@pytest.mark.parametrize("layout", fluvial_implicit.LAYOUTS)
+def test_the_discharge_is_the_routings_to_float32_rounding(layout: str) -> None:
+    # Q of the implicit step is the routing's accumulation of the precipitation (000 Eq. 5),
+    # held in float32: hydro's float64 accumulation to float32's rounding (2^-24 of it)
+    from unerode_cli.hydro import accumulate
+
+    z, grid = _tujunga(96)
+    outlets = outlet_mask(grid, "all")
+    params = FluvialParams(uplift=0.0, k=1e-5, k_d=1.0, precipitation=0.7, m=0.4, n=1.0)
+    routing = route(z, grid, outlets, "mfd")
+    done = fluvial_implicit.step(z, grid, outlets, params, 1000.0, routing=routing, layout=layout)
+    assert done.change.discharge.dtype == np.float32
+    expected = accumulate(routing, 0.7)
+    np.testing.assert_allclose(done.change.discharge, expected, rtol=2.0**-24, atol=0.0)

@@ -61,7 +61,8 @@ class Routing:
         method: ``"mfd"`` (multiple flow directions, 000 Eq. 6) or ``"d8"`` (steepest descent).
         filled: float64[ny, nx] routing surface (m): the elevation after priority-flood+ε,
             equal to it outside depressions; +inf on nodata.
-        outlets: bool[ny, nx] sinks of the flow.
+        outlets: bool[ny, nx] sinks of the flow (the mask routed to, not a copy, when it lies
+            inside the domain).
         order: flat indices of all valid cells sorted by descending routing surface,
             so every cell comes before its receivers (000 Algorithm 1); int32 below 2^31
             cells (half the memory traffic of the serial sweeps that read it), else int64.
@@ -138,13 +139,16 @@ def route(elevation: np.ndarray, grid: Grid, outlets: np.ndarray, method: Method
 
 def flood_inputs(elevation: np.ndarray, grid: Grid, outlets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The checked inputs of a priority flood: (elevation as contiguous float64, outlets as
-    contiguous bool inside the domain). Raises ValueError for a shape mismatch, no outlet or a
-    non-finite elevation in the domain."""
+    contiguous bool inside the domain: the mask given itself when it is one and has no outlet
+    outside the domain, so that a routing holds no copy of it). Raises ValueError for a shape
+    mismatch, no outlet or a non-finite elevation in the domain."""
     if elevation.shape != grid.shape or outlets.shape != grid.shape:
         raise ValueError(
             f"elevation {elevation.shape} and outlets {outlets.shape} must have the grid's shape {grid.shape}"
         )
-    outlets = np.ascontiguousarray(outlets, dtype=bool) & grid.valid
+    outlets = np.ascontiguousarray(outlets, dtype=bool)
+    if np.any(outlets > grid.valid):
+        outlets = outlets & grid.valid
     require_outlets(outlets)
     z = np.ascontiguousarray(elevation, dtype=np.float64)
     if not np.isfinite(z).all() and not np.isfinite(z[grid.valid]).all():

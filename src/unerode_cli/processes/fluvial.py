@@ -121,7 +121,8 @@ class FluvialChange:
         dh: float64[ny, nx] elevation change (m), uplift U·dt included; 0 on outlets and nodata.
         sediment_flux: float64[ny, nx] Q_s (m³/y) leaving each cell; on outlets, what leaves
             the domain there.
-        discharge: float64[ny, nx] water discharge Q (m³/y); 0 on nodata.
+        discharge: float[ny, nx] water discharge Q (m³/y); 0 on nodata (float64 from the
+            explicit step, float32 from ``fluvial_implicit.step``).
         budget: the mass budget of the step.
     """
 

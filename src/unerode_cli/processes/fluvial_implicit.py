@@ -54,9 +54,11 @@ ATOL = 1e-9
 MAX_PASSES = 500
 #: Layouts of the step's arrays (see :func:`step`).
 LAYOUTS = ("ordered", "lean")
-#: Bytes per cell the ordered layout holds beyond the lean one (in-order copies, receiver
-#: lists with MFD's fractions, the cell-to-position map): 58 measured at 8192² (MFD), rounded up.
-ORDERED_EXTRA_BYTES_PER_CELL = 64
+#: Bytes per cell an ordered-layout step allocates beyond what a run holds when the step
+#: starts (elevations, routing): the step's own arrays (Q, new elevations, Q_s, deposition
+#: rates: 28) and what the ordered layout holds beyond the lean one (in-order copies, receiver
+#: lists with MFD's fractions, the cell-to-position map: 58 measured at 8192², MFD); rounded up.
+ORDERED_EXTRA_BYTES_PER_CELL = 96
 
 
 @dataclass(frozen=True)
@@ -109,14 +111,13 @@ def step(
         layout: ``"ordered"`` or ``"lean"`` (see the module docstring).
 
     Returns:
-        the change with Q, Q_s and the mass budget (eroded + inflow − deposited − outflux = 0
-        to rounding), and how the iteration ended.
+        the change with Q (float32), Q_s and the mass budget (eroded + inflow − deposited −
+        outflux = 0 to rounding), and how the iteration ended.
 
     Raises:
         FloatingPointError: K·Q^m·dt overflows (no step can be computed).
     """
     from unerode_cli.hydro.fields import flat_field
-    from unerode_cli.hydro.kernels import accumulate_into
     from unerode_cli.hydro.routing import cell_sources, route
 
     if not dt > 0.0:
@@ -137,9 +138,7 @@ def step(
     else:
         sources = sources + flat_field(inflow.discharge, shape, "inflow discharge")
         sediment_in = flat_field(inflow.sediment, shape, "inflow sediment")
-    discharge = np.zeros(shape, dtype=np.float64)
-    accumulate_into(routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single,
-                    sources, discharge.ravel())
+    discharge = _discharge(routing, grid, sources)
     k = flat_field(params.k, shape, "k")
     q_max = float(discharge.max(initial=0.0))
     if not np.isfinite(float(k.max(initial=0.0)) * q_max ** float(params.m) * dt):
@@ -161,6 +160,18 @@ def step(
                         dt * float(np.sum(sediment_in, dtype=np.float64)))
     change = FluvialChange(dh, sediment_flux, discharge, budget)
     return ImplicitStep(change, int(passes), float(residual), rates)
+
+
+def _discharge(routing: Routing, grid: Grid, sources: np.ndarray) -> np.ndarray:
+    """float32[ny, nx] discharge Q (m³/y): accumulated in float64 (000 Eq. 5), held in float32
+    (K·Q^m·dt and the trapping K_d/Q read it to 6e-8 of their value; the float64 grid goes
+    before the step's other arrays are made)."""
+    from unerode_cli.hydro.kernels import accumulate_into
+
+    accumulated = np.zeros(grid.shape, dtype=np.float64)
+    accumulate_into(routing.filled, routing.outlets, routing.order, grid.dx, grid.dy, routing.single,
+                    sources, accumulated.ravel())
+    return accumulated.astype(np.float32)
 
 
 def _first_rates(deposition: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray:

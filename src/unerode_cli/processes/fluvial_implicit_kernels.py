@@ -162,7 +162,7 @@ def implicit_sweep_into(h0, valid, zf, outlets, order, dx, dy, single, q, k, n, 
         h0: float64[ny*nx] elevation at the start (m).
         zf, outlets, order, dx, dy, single: the routing of ``h0`` (``unerode_cli.hydro``); the
             receivers and their weights are those of ``zf``, kept through the step.
-        q: float64[ny*nx] discharge Q (m³/y).
+        q: float[ny*nx] discharge Q (m³/y).
         valid: bool[ny, nx] the domain, for |∇h| of ``h0`` (000 Eq. 9), to which each cell's
             weighted receiver slope is scaled at the start of the step with MFD.
         k: field K; n, m: exponents; k_d: field K_d (m/y); uplift: field U (m/y); dt: step (y).

@@ -37,8 +37,9 @@ def lean_sweep_into(h0, valid, zf, outlets, order, dx, dy, single, q, k, n, m, k
             ``fluvial_implicit_kernels.implicit_sweep_into``.
         hn: float64[ny*nx] set to the elevation at the end of the step (outlets: h0).
         qs: float64[ny*nx] set to the sediment flux leaving each cell (m³/y).
-        dep: float[ny*nx] deposition rates D (m/y): the first guess on entry, the last pass's
-            on return.
+        dep: float64[ny*nx] deposition rates D (m/y): the first guess on entry, the last
+            pass's on return (float64: the iteration's tolerance is a share of the step's
+            largest |Δh|, far below the rounding of D·dt in float32 near a steady state).
         coef: float[ny*nx] scratch, set to K·Q^m·dt (MFD: scaled to 000 Eq. 9's gradient).
 
     Returns:
