@@ -86,6 +86,7 @@ def test_summary_rasters_equal_numpy_statistics_of_the_members(ensemble_run) -> 
             with rasterio.open(path) as src, rasterio.open(out / "members/0000" / f"{stem}.tif") as member:
                 assert src.crs == member.crs and src.transform == member.transform
                 assert float(src.tags()["UNERODE_AGE_KA"]) == float(member.tags()["UNERODE_AGE_KA"])
+                assert src.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"  # cloud-optimised
     assert read(out / "summary" / "past_std.tif").max() > 0.1
 
 

@@ -1257,12 +1257,42 @@ def report_cases() -> list[Case]:
     ]
 
 
+def georef_cases() -> list[Case]:
+    """Georeferencing assigned to inputs (--crs, --cell-size, --nodata) and --snapshots-nc,
+    refused before any work (issue 51)."""
+    exr = exr_header("dem.exr")
+    return [
+        Case("info-crs-unparsable", C0, ("info", "in.tif", "--crs", "EPSG:999999"), (IN,), phrase="CRS"),
+        Case("info-crs-garbage", C0, ("info", "in.tif", "--crs", "not a crs"), (IN,), phrase="pyproj"),
+        Case("info-cell-size-zero", C0, ("info", "dem.exr", "--cell-size", "0"), (exr,), phrase="> 0"),
+        Case("flow-cell-size-negative", C0, ("flow", "dem.exr", "q.tif", "--cell-size", "-30"), (exr,),
+             phrase="> 0"),
+        Case("convert-crs-of-another-input", C0, ("convert", "in.tif", "out.tif", "--crs", "EPSG:4326"),
+             (IN,), phrase="already has a CRS"),
+        Case("erode-crs-of-another-input", C0, ("erode", "in.tif", "out.tif", "--steps", "1", "--crs",
+                                                "EPSG:32633"), (IN,), phrase="already has a CRS"),
+        Case("preview-cell-size-of-another-input", C0, ("preview", "in.tif", "p.png", "--cell-size", "10"),
+             (IN,), phrase="already has a geotransform"),
+        Case("convert-crs-same-as-input", C0, ("convert", "in.tif", "out.tif", "--crs", "EPSG:32632"), (IN,),
+             exits=(0,), may_create=OUTS),
+        Case("erode-snapshots-nc-without-snapshots", C0,
+             ("erode", "in.tif", "out.tif", "--steps", "2", "--snapshots-nc", "s.nc"), (IN,),
+             phrase="--snapshot-every"),
+        Case("erode-snapshots-nc-not-nc", C0,
+             ("erode", "in.tif", "out.tif", "--steps", "2", "--dt", "100", "--snapshot-every", "100",
+              "--snapshots-nc", "s.tif"), (IN,), phrase=".nc"),
+        Case("climate-snapshots-nc-without-snapshots", C0,
+             ("climate-run", "in.tif", "out.tif", *CLIMATE, "--snapshots-nc", "s.nc"), (IN, CHRONOLOGY),
+             phrase="--snapshots"),
+    ]
+
+
 def all_cases() -> list[Case]:
     """Every case, by subcommand."""
     cases = [*info_cases(), *convert_cases(), *preview_cases(), *synth_cases(), *flow_cases(), *erode_cases(),
              *unerode_cases(), *diff_cases(), *hypsometry_cases(), *glaciate_cases(), *climate_cases(),
              *terrace_cases(), *particle_cases(), *landform_cases(), *sandstone_cases(), *ensemble_cases(),
-             *report_cases(), *pipeline_cases()]
+             *report_cases(), *pipeline_cases(), *georef_cases()]
     names = [case.name for case in cases]
     assert len(names) == len(set(names)), "two cases share a name"
     return cases

@@ -28,6 +28,8 @@ from rasterio.windows import Window
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.cellsize import cell_size_metres
+from unerode_cli.io.input_georef import InputGeoref
+from unerode_cli.io.netcdf_raster import name_raster_variable
 from unerode_cli.io.paths import atomic_path, place, staging_folder
 from unerode_cli.io.terrain import Terrain
 
@@ -102,7 +104,9 @@ FORMATS = {
     ".asc": Format("AAIGrid", by_copy=True),  # Arc/Info ASCII grid (+ .prj)
     ".img": Format("HFA"),  # Erdas Imagine
     ".bil": Format("ENVI", defaults={"INTERLEAVE": "BIL"}),  # ENVI band-interleaved (+ .hdr)
-    ".nc": Format("netCDF", by_copy=True, projections=CF_METHODS),  # rasterio opens netCDF read-only
+    # rasterio opens netCDF read-only; NetCDF-4 with DEFLATE, the variable named (netcdf_raster)
+    ".nc": Format("netCDF", by_copy=True, defaults={"FORMAT": "NC4", "COMPRESS": "DEFLATE"},
+                  projections=CF_METHODS),
     ".gpkg": Format("GPKG", by_copy=True),  # GeoPackage gridded coverage (float32 at most)
 }
 
@@ -150,31 +154,35 @@ class GdalHeader:
         return READ_BYTES_PER_CELL
 
 
-def read_gdal_header(path: Path, band: int | None = None) -> GdalHeader:
-    """The header of one band of a GDAL raster; refuses (InputError) a raster GDAL cannot
-    read, a band it does not have and a raster without georeferencing."""
+def read_gdal_header(path: Path, band: int | None = None, georef: InputGeoref | None = None) -> GdalHeader:
+    """The header of one band of a GDAL raster, with what ``georef`` assigns; refuses
+    (InputError) a raster GDAL cannot read, a band it does not have, a raster without
+    georeferencing (unless ``georef`` gives a cell size) and an assignment that contradicts
+    the file (:class:`~unerode_cli.io.input_georef.InputGeoref`)."""
     with _open(path) as src:
         band = _band(src, path, band, note=False)
-        return _header(src, path, band)
+        return _header(src, path, band, georef or InputGeoref())
 
 
 def read_gdal(path: Path, band: int | None = None,
-              window: tuple[slice, slice] | None = None) -> Terrain:
-    """Read one band of a GDAL raster as a Terrain (nodata and NaN/inf cells → NaN).
+              window: tuple[slice, slice] | None = None, georef: InputGeoref | None = None) -> Terrain:
+    """Read one band of a GDAL raster as a Terrain (nodata and NaN/inf cells → NaN), with the
+    CRS, grid and nodata value ``georef`` assigns (see :func:`read_gdal_header`).
 
     ``window`` (rows, columns: slices of cell indices, within the raster) reads those cells
     only; the cell size stays that of the whole raster (on a geographic raster, the geodesic
     size at its centre)."""
+    georef = georef or InputGeoref()
     with _open(path) as src:
         band = _band(src, path, band, note=True)
-        header = _header(src, path, band)
+        header = _header(src, path, band, georef)
         size = cell_size_metres(header.crs_wkt, header.transform, header.shape, str(path))
         transform = header.transform
         rio_window = None
         if window is not None:
             rows, cols = window
             rio_window = Window.from_slices(rows, cols)
-            transform = src.window_transform(rio_window)
+            transform = header.transform * Affine.translation(rio_window.col_off, rio_window.row_off)
         rows, cols = (header.shape if rio_window is None else
                       (int(rio_window.height), int(rio_window.width)))
         try:
@@ -189,6 +197,7 @@ def read_gdal(path: Path, band: int | None = None,
             non_finite, usable = _read_strips(src, band, data, top, left)
         except RasterioIOError as exc:
             raise _corrupt(path, exc) from None
+        georef.mask_nodata(data)
         tags = header.tags
         if src.units and src.units[band - 1]:
             tags["UNIT"] = src.units[band - 1]
@@ -254,19 +263,23 @@ def _band(src: rasterio.io.DatasetReader, path: Path, band: int | None, note: bo
     return band
 
 
-def _header(src: rasterio.io.DatasetReader, path: Path, band: int) -> GdalHeader:
-    """The header of an open raster; a raster without a geotransform (GDAL gives the identity
-    then: a PNG or JPEG, say) is refused as not georeferenced."""
-    crs_wkt = src.crs.to_wkt() if src.crs else ""
-    if src.transform == Affine.identity() and not src.gcps[0]:
+def _header(src: rasterio.io.DatasetReader, path: Path, band: int, georef: InputGeoref) -> GdalHeader:
+    """The header of an open raster with what ``georef`` assigns; a raster without a
+    geotransform (GDAL gives the identity then: a PNG or JPEG, say) is refused as not
+    georeferenced unless ``georef`` gives its cell size."""
+    crs_wkt = georef.resolve_crs(src.crs.to_wkt() if src.crs else "", path)
+    has_transform = not (src.transform == Affine.identity() and not src.gcps[0])
+    transform = georef.resolve_transform(src.transform if has_transform else None, src.shape, path)
+    if transform is None:
         missing = "geotransform" + ("" if crs_wkt else " and no CRS")
         raise InputError(f"{path} is not georeferenced (it has no {missing}); give it a CRS and corner "
                          "coordinates first, e.g. gdal_translate -a_srs EPSG:32632 -a_ullr ULX ULY LRX LRY "
-                         f"{path.name} dem.tif.")
+                         f"{path.name} dem.tif, or assign a cell size (--cell-size; --input-cell-size with "
+                         "convert).")
     tags = {k: v for k, v in src.tags().items() if kept(k)}
     itemsize = np.dtype(src.dtypes[band - 1]).itemsize
-    return GdalHeader((src.height, src.width), itemsize, crs_wkt, src.transform, src.nodatavals[band - 1],
-                      tags, src.count)
+    nodata = src.nodatavals[band - 1] if georef.nodata is None else georef.nodata
+    return GdalHeader((src.height, src.width), itemsize, crs_wkt, transform, nodata, tags, src.count)
 
 
 def write_bytes_per_cell(path: Path) -> int:
@@ -401,6 +414,8 @@ def _write(terrain: Terrain, path: Path, options: WriteOptions) -> None:
             _fill(dst, terrain, nodata, options.dtype)
         with rasterio.open(staged) as source:
             rasterio.shutil.copy(source, path, driver=fmt.driver, **creation)
+        if fmt.driver == "netCDF":
+            name_raster_variable(path, terrain.tags)
     finally:
         staged.unlink(missing_ok=True)
 

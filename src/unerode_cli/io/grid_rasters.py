@@ -17,6 +17,7 @@ from rasterio.errors import RasterioIOError
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.gdal_io import WriteOptions, output_format
+from unerode_cli.io.input_georef import InputGeoref
 from unerode_cli.io.paths import atomic_path
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
@@ -49,10 +50,10 @@ def load_on_grid(path: Path, terrain: Terrain, what: str) -> np.ndarray:
     return read_on_grid(path, terrain, what).elevation
 
 
-def read_on_grid(path: Path, terrain: Terrain, what: str) -> Terrain:
-    """Read a raster, with its tags, that must lie on ``terrain``'s grid (shape, transform and
-    CRS checked; ``what`` names it in messages)."""
-    layer = read_terrain(path)
+def read_on_grid(path: Path, terrain: Terrain, what: str, georef: InputGeoref | None = None) -> Terrain:
+    """Read a raster, with its tags and what ``georef`` assigns, that must lie on ``terrain``'s
+    grid (shape, transform and CRS checked; ``what`` names it in messages)."""
+    layer = read_terrain(path, georef=georef)
     check_on_grid(layer.shape, layer.transform, layer.crs_wkt, terrain, path, what)
     return layer
 

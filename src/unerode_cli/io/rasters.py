@@ -10,7 +10,7 @@ import OpenEXR
 from affine import Affine
 
 from unerode_cli.errors import InputError
-from unerode_cli.io.exr_io import read_exr, write_exr
+from unerode_cli.io.exr_io import read_exr, read_exr_georef, write_exr
 from unerode_cli.io.gdal_io import (
     READ_BYTES_PER_CELL,
     WriteOptions,
@@ -20,6 +20,7 @@ from unerode_cli.io.gdal_io import (
     writable_extensions,
     write_gdal,
 )
+from unerode_cli.io.input_georef import InputGeoref
 from unerode_cli.io.paths import atomic_path
 from unerode_cli.io.terrain import Terrain
 
@@ -73,37 +74,44 @@ def _check_input(path: Path) -> None:
         raise InputError(f"input {path} is a folder, not a raster file.")
 
 
-def read_header(path: Path, band: int | None = None) -> RasterHeader:
-    """The header of a heightfield file, its cells unread (for memory estimates and windows):
-    refuses what :func:`read_terrain` would refuse before reading cells (missing file, folder,
-    unreadable format, missing band, no georeferencing)."""
+def read_header(path: Path, band: int | None = None, georef: InputGeoref | None = None) -> RasterHeader:
+    """The header of a heightfield file, its cells unread (for memory estimates and windows),
+    with what ``georef`` assigns (``--crs``, ``--cell-size``, ``--nodata``): refuses what
+    :func:`read_terrain` would refuse before reading cells (missing file, folder, unreadable
+    format, missing band, no georeferencing, an assignment the file contradicts)."""
     _check_input(path)
+    georef = georef or InputGeoref()
     if is_exr(path):
         try:
             with OpenEXR.File(str(path), header_only=True) as exr:
-                header = exr.header()
+                header = dict(exr.header())
                 low, high = header["dataWindow"]
                 channels = len(header.get("channels", [])) or 1
         except Exception as exc:  # the bindings raise bare RuntimeError/OSError subclasses
             raise InputError(f"{path} is not an OpenEXR file that can be read ({exc}).") from None
         shape = (int(high[1]) - int(low[1]) + 1, int(high[0]) - int(low[0]) + 1)
+        where = read_exr_georef(path, header, shape, georef)
         # every channel is read (float32 at most), the chosen one cast to float64, masks
-        return RasterHeader(path, shape, 4 * channels + READ_BYTES_PER_CELL)
-    gdal = read_gdal_header(path, band)
+        return RasterHeader(path, shape, 4 * channels + READ_BYTES_PER_CELL, where.crs_wkt, where.transform,
+                            where.nodata)
+    gdal = read_gdal_header(path, band, georef)
     return RasterHeader(path, gdal.shape, gdal.read_bytes_per_cell, gdal.crs_wkt, gdal.transform,
                         gdal.nodata, gdal.tags)
 
 
 def read_terrain(path: Path, band: int | None = None, channel: str | None = None,
-                 window: tuple[slice, slice] | None = None) -> Terrain:
+                 window: tuple[slice, slice] | None = None, georef: InputGeoref | None = None) -> Terrain:
     """Read a heightfield (metres) from a GDAL raster or an OpenEXR file; never writes to it.
+
+    ``georef`` assigns a CRS, a grid and a nodata value to an input that lacks them
+    (:class:`~unerode_cli.io.input_georef.InputGeoref`; refused when the file has others).
 
     ``window`` (rows, columns: slices of cell indices within the raster) reads those cells
     only from a GDAL raster (an EXR is read whole, then cut); the cell size stays that of the
     whole raster. Before any cell is read, the registered memory check (see
     :func:`set_memory_check`) is given the peak bytes of the read."""
     if _memory_check is not None:
-        header = read_header(path, band)
+        header = read_header(path, band, georef)
         cells = header.cells
         if window is not None and not is_exr(path):
             rows, cols = window
@@ -115,8 +123,8 @@ def read_terrain(path: Path, band: int | None = None, channel: str | None = None
                       "a machine with more memory")
     _check_input(path)
     if not is_exr(path):
-        return read_gdal(path, band, window)
-    terrain = read_exr(path, channel)
+        return read_gdal(path, band, window, georef)
+    terrain = read_exr(path, channel, georef)
     if window is None:
         return terrain
     rows, cols = window

@@ -173,7 +173,7 @@ def _write_statistic(job: SummaryJob, first: Terrain, relative: Path, statistic:
     path = summary_raster_path(job.folder, relative, statistic)
     terrain = first.with_elevation(raster)
     terrain.tags = {k: v for k, v in first.tags.items() if k == AGE_TAG or not k.startswith("UNERODE_")}
-    outputs = Outputs(path, WriteOptions(), overwrite=True)
+    outputs = Outputs(path, WriteOptions(cog=True), overwrite=True)  # cloud-optimised GeoTIFF
     outputs.check()
     save(terrain, outputs, COMMAND, {"statistic": statistic, "of": relative.as_posix(), "members": count},
          {"statistic": statistic, "members": count, "statistics_of": STATISTICS})

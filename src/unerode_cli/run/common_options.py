@@ -10,8 +10,11 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+from unerode_cli.errors import InputError
+from unerode_cli.io.georef import parse_crs
+from unerode_cli.io.input_georef import InputGeoref
 from unerode_cli.run.declare import Opt
-from unerode_cli.run.values import Number
+from unerode_cli.run.values import Number, OptionParser
 
 #: Parsers of kinds of numbers that several options share: a time span (years, > 0) and an
 #: elevation (m).
@@ -19,6 +22,7 @@ POSITIVE_YEARS = Number("years", 0.0, above=True)
 METRES = Number("m")
 
 #: Help panels of the shared options.
+INPUT_PANEL = "Inputs"
 BOUNDARY_PANEL = "Boundaries"
 OUTPUT_PANEL = "Outputs"
 CHECKPOINT_PANEL = "Checkpoints"
@@ -42,6 +46,45 @@ OUTPUT = Opt("output", Path, help="Output heightfield; the format follows the ex
 BAND = Opt("band", int, help="Band to read from a multi-band raster (1-based).", minimum=1, record=False)
 CHANNEL = Opt("channel", str, help="EXR channel to read (default: Y, else R, else the only float channel).",
               record=False)
+
+
+class CrsText(OptionParser):
+    """A CRS that pyproj parses (``EPSG:32632``, WKT, PROJ JSON or string), kept as given."""
+
+    def parse(self, value: Any) -> str:
+        text = str(value).strip()
+        try:
+            parse_crs(text)
+        except InputError:
+            raise ValueError(f"expected a CRS that pyproj knows (e.g. EPSG:32632 or a WKT string), "
+                             f"got '{value}'") from None
+        return text
+
+
+INPUT_CRS = Opt("input_crs", str, None, "Assign this CRS (EPSG:n, WKT or PROJ string) to inputs that have "
+                "none; an input with another CRS is refused (nothing is reprojected).", flags=("--crs",),
+                parser=CrsText(), panel=INPUT_PANEL, metavar="CRS")
+INPUT_CELL_SIZE = Opt("input_cell_size", float, None, "Cell size of inputs without a geotransform (e.g. an "
+                      "EXR from Houdini), in the CRS's units (m without --crs); their lower-left corner is "
+                      "put at (0, 0). An input with other cells is refused.",
+                      flags=("--cell-size", "--input-cell-size"), parser=Number(minimum=0.0, above=True),
+                      panel=INPUT_PANEL)
+INPUT_NODATA = Opt("input_nodata", float, None, "Nodata value of the inputs: their cells equal to it are "
+                   "nodata, and it is the nodata value of the outputs.", flags=("--nodata",),
+                   parser=Number(), panel=INPUT_PANEL)
+#: Georeferencing assigned to the heightfields a job reads (see :func:`input_georef`).
+GEOREF = (INPUT_CRS, INPUT_CELL_SIZE, INPUT_NODATA)
+#: The same for ``convert``, whose ``--cell-size`` resamples: the cell size is ``--input-cell-size``.
+GEOREF_CONVERT = (INPUT_CRS, dataclasses.replace(INPUT_CELL_SIZE, flags=("--input-cell-size",)), INPUT_NODATA)
+
+
+def input_georef(job: Any) -> InputGeoref:
+    """What a job's ``--crs``, ``--cell-size`` and ``--nodata`` assign to its inputs (nothing
+    for a job without them)."""
+    return InputGeoref(getattr(job, "input_crs", None), getattr(job, "input_cell_size", None),
+                       getattr(job, "input_nodata", None))
+
+
 OVERWRITE = Opt("overwrite", bool, False, "Replace an existing output.", kind="flag", panel=OUTPUT_PANEL,
                 record=False)
 DTYPE = Opt("dtype", str, "float32", "Output sample type of GDAL outputs.", choices=("float32", "float64"),
@@ -59,8 +102,12 @@ FORCE = Opt("force", bool, False, "Run a DEM whose elevations cannot be metres o
 
 #: The raster-output options of most jobs: format, creation options, overwrite and preview.
 RASTER_OUTPUT = (DTYPE, COG, CREATION_OPTIONS, OVERWRITE, PREVIEW)
-#: Reading a band of a multi-band raster or a channel of an EXR.
-READING = (BAND, CHANNEL)
+#: Reading a band of a multi-band raster or a channel of an EXR, and the georeferencing assigned.
+READING = (BAND, CHANNEL, *GEOREF)
+
+SNAPSHOTS_NC = Opt("snapshots_nc", Path, None, "Also write the snapshots as one CF-1.8 NetCDF time series "
+                   "(.nc: time, y, x; CRS as grid mapping; units on every variable), for xarray and QGIS.",
+                   role="output", panel=OUTPUT_PANEL, record=False, metavar="FILE.nc")
 
 OUTLETS = Opt("outlets", str, "all", "Domain edges that drain out: all, none, or a comma list of N,E,S,W.",
               panel=BOUNDARY_PANEL)

@@ -11,12 +11,14 @@ from unerode_cli.run.common_options import (
     DIRICHLET,
     EDGE_BASE,
     FORCE,
+    GEOREF,
     METRES,
     OUTLETS,
     OUTPUT,
     OUTPUT_PANEL,
     POSITIVE_YEARS,
     RASTER_OUTPUT,
+    SNAPSHOTS_NC,
     SOURCE,
 )
 from unerode_cli.run.declare import Opt, parameter_options
@@ -62,6 +64,7 @@ OPTIONS = (
     Opt("snapshots_ka", str, None, "Ages (ka, comma-separated) at which to write OUTPUT_<age>ka snapshots.",
         flags=("--snapshots",), parser=Numbers("ages in ka separated by commas"), metavar="AGES",
         panel=OUTPUT_PANEL),
+    SNAPSHOTS_NC,
     Opt("schedule_file", Path, None, "YAML schedule: per-phase parameter values (glacial, end-of-glacial, "
         "interglacial) and the downstream K_d range.", flags=("--params",), role="input",
         panel=CHRONOLOGY_PANEL),
@@ -76,6 +79,7 @@ OPTIONS = (
     DIRICHLET,
     INFLOW,
     FORCE,
+    *GEOREF,
     Opt("sea_outlets", bool, True, "Cells at or below the current sea level are outlets, and boundary nodes "
         "at or below the sea level of --from follow sea level.", kind="flag", off_flag="--no-sea-outlets",
         panel=BOUNDARY_PANEL),

@@ -12,6 +12,8 @@ import numpy as np
 from unerode_cli.io.checkpoints import checkpoint_path
 from unerode_cli.io.coarse_runs import fluxes_folder
 from unerode_cli.io.csv_tables import write_table
+from unerode_cli.io.netcdf_files import write_series
+from unerode_cli.io.netcdf_raster import ELEVATION
 from unerode_cli.io.paths import atomic_path
 from unerode_cli.jobs.climate_run.forcing import chronology_png_path, snapshot_path, timeline_path
 from unerode_cli.run.outputs import AGE_TAG, PHASE_TAG, SEA_TAG, TIME_TAG, Outputs, save
@@ -69,6 +71,9 @@ def write_climate(prepared: PreparedClimateRun, result: ClimateResult) -> str:
                              prepared.chronology.age_ka, prepared.chronology.value,
                              f"{prepared.chronology.name} ({prepared.chronology.unit})",
                              job.snapshot_ages, title=job.output.name)
+    if job.snapshots_nc is not None:
+        write_series(job.snapshots_nc, [snapshot_path(job.output, a) for a in job.snapshot_ages], ELEVATION,
+                     f"climate-run snapshots of {job.source.name}")
     checkpoint_path(job.output).unlink(missing_ok=True)
     return (f"{job.COMMAND}: {prepared.steps} steps of {job.dt:g} y from {job.from_ka:g} to "
             f"{job.to_ka:g} ka; wrote {job.output}, {timeline_path(job.output).name}, "

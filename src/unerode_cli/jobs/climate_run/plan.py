@@ -24,6 +24,7 @@ from unerode_cli.io.checkpoints import check_checkpoint
 from unerode_cli.io.chronology_files import read_age_table
 from unerode_cli.io.coarse_runs import check_fluxes_folder, coarse_run_folder, fluxes_folder, read_coarse_run
 from unerode_cli.io.grid_rasters import load_on_grid
+from unerode_cli.io.netcdf_files import check_series
 from unerode_cli.io.paths import OutputPlan, check_output
 from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
@@ -40,6 +41,7 @@ from unerode_cli.jobs.climate_run.forcing import (
 from unerode_cli.processes.inflow import InflowHistory
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import COARSE, BaseLevels, base_levels_from_options, edge_base_table
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.glacial.options import MODEL_PARAMETERS
 from unerode_cli.run.job import Progress
@@ -98,8 +100,8 @@ def plan(job: ClimateJob, plan_outputs: OutputPlan | None = None, progress: Prog
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, job.replaces, job.preview)
     outputs.check(job.source)
     _check_outputs(job, names, steps, outputs)
-    check_command("climate-run", read_header(job.source))
-    terrain = read_terrain(job.source)
+    check_command("climate-run", read_header(job.source, georef=input_georef(job)))
+    terrain = read_terrain(job.source, georef=input_georef(job))
     terrain.check_valid(job.source)
     check_metres(terrain, job.source, job.force)
     outputs.check_source(terrain, job.source)
@@ -165,6 +167,8 @@ def _check_outputs(job: ClimateJob, names: list[str], steps: int, outputs: Outpu
     check_checkpoint(job.output, job.resume, job.overwrite, (job.source,))
     for path in [snapshot_path(job.output, a) for a in job.snapshot_ages]:
         check_raster(path, outputs.options, job.replaces, (job.source,))
+    if job.snapshots_nc is not None:
+        check_series(job.snapshots_nc, bool(job.snapshot_ages), "--snapshots", job.replaces, (job.source,))
     check_output(timeline_path(job.output), job.replaces, (job.source,))
     _check_nesting_options(job, names)
     if job.write_fluxes:

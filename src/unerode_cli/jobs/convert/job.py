@@ -14,6 +14,7 @@ from unerode_cli.io.rasters import is_exr, read_header, read_terrain
 from unerode_cli.io.resampling import RESAMPLE_BYTES_PER_CELL, crop, crop_window, resample, resampled_shape
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.convert.options import OPTIONS
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.memory import check_fits
@@ -46,11 +47,12 @@ class ConvertJob(Job):
         outputs.read(self.source)
         written = Outputs.from_cli(self.output, self.dtype, self.cog, self.co, self.overwrite, self.preview)
         written.check(self.source)
-        header = read_header(self.source, band=self.band)
+        header = read_header(self.source, band=self.band, georef=input_georef(self))
         window = None
         if self.crop is not None and header.transform is not None and not is_exr(self.source):
             window = crop_window(header.transform, header.shape, self.crop)
-        terrain = read_terrain(self.source, band=self.band, channel=self.channel, window=window)
+        terrain = read_terrain(self.source, band=self.band, channel=self.channel, window=window,
+                               georef=input_georef(self))
         if self.crop is not None and window is None:
             terrain = crop(terrain, self.crop)
         if self.cell_size is not None:

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 from unerode_cli.run.common_options import (
+    BAND,
+    CHANNEL,
     COG,
     CREATION_OPTIONS,
     DTYPE,
+    GEOREF_CONVERT,
     OUTPUT,
     OVERWRITE,
     PREVIEW,
-    READING,
     SOURCE,
 )
 from unerode_cli.run.declare import Opt
@@ -28,7 +30,9 @@ OPTIONS = (
         metavar="XMIN,YMIN,XMAX,YMAX"),
     Opt("cell_size", float, None, "Resample to square cells of this size (the CRS's units; after --crop): "
         "averages when coarser, bilinear when finer.", parser=POSITIVE),
-    *READING,
+    BAND,
+    CHANNEL,
+    *GEOREF_CONVERT,
     COG,
     CREATION_OPTIONS,
     OVERWRITE,

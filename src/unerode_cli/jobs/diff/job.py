@@ -14,6 +14,7 @@ from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.diff.options import OPTIONS
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.outputs import Outputs, check_previewable, field_preview, save
@@ -45,9 +46,9 @@ class DiffJob(Job):
         outputs.read(self.b)
         written = Outputs.from_cli(self.output, self.dtype, self.cog, self.co, self.overwrite, self.preview)
         written.check(self.a, self.b)
-        a = read_terrain(self.a)
+        a = read_terrain(self.a, georef=input_georef(self))
         a.check_valid(self.a)
-        b = read_on_grid(self.b, a, "second DEM")
+        b = read_on_grid(self.b, a, "second DEM", georef=input_georef(self))
         b.check_valid(self.b)
         if self.preview is not None:
             check_previewable(a, self.a)

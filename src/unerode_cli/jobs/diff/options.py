@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from unerode_cli.run.common_options import RASTER_OUTPUT
+from unerode_cli.run.common_options import GEOREF, RASTER_OUTPUT
 from unerode_cli.run.declare import Opt
 
 OPTIONS = (
@@ -13,5 +13,6 @@ OPTIONS = (
         required=True, role="input"),
     Opt("output", Path, help="Output raster of B − A (m): positive where B is higher.", argument=True,
         required=True, role="output", record=False),
+    *GEOREF,
     *RASTER_OUTPUT,
 )

@@ -13,12 +13,16 @@ import numpy as np
 from unerode_cli.errors import InputError
 from unerode_cli.hydro.routing import release_scratch
 from unerode_cli.io.checkpoints import check_checkpoint, checkpoint_path
+from unerode_cli.io.netcdf_files import check_series, write_series
+from unerode_cli.io.netcdf_raster import ELEVATION
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.erode.options import BACKWARD_SCHEMES, FORWARD_SCHEMES, OPTIONS
+from unerode_cli.jobs.erode.start import take_elevation
 from unerode_cli.processes.parameters import UPLIFT
 from unerode_cli.run.boundaries import boundaries_from_options
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.divergence import DivergenceGuard, max_rate
 from unerode_cli.run.fingerprint import run_fingerprint
@@ -121,8 +125,9 @@ class ErosionSteps:
     def __init__(self, prepared: PreparedJob, progress: Progress) -> None:
         job, terrain = prepared.job, prepared.terrain
         self.prepared = prepared
-        self.elevation = np.array(terrain.elevation, dtype=np.float64, copy=True)
         guard = DivergenceGuard(terrain.elevation, max_rate(prepared.uplift))
+        # the terrain keeps the start (float32 where that holds it exactly), the run its own grid
+        self.elevation = take_elevation(terrain, guard)
         self.applier = StepApplier(prepared.processes, prepared.signed_dt, not job.no_substep, progress.note,
                                    guard, prepared.steps)
         self.snapshots: list[Path] = []
@@ -234,6 +239,8 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
     replace = job.overwrite or job.resume      # a resumed run rewrites what it had written
     outputs = Outputs.from_cli(job.output, job.dtype, job.cog, job.co, replace, job.preview)
     outputs.check(job.source)
+    if job.snapshots_nc is not None:
+        check_series(job.snapshots_nc, bool(stride), "--snapshot-every", replace, (job.source,))
     rasters = [job.change_map] if job.change_map else []
     rasters += [snapshot_path(job.output, k) for k in range(1, steps // stride + 1)] if stride else []
     for path in rasters:
@@ -242,8 +249,9 @@ def plan(job: ErosionJob, plan_outputs: OutputPlan | None = None) -> PreparedJob
         check_png(change_preview_path(job.change_map), replace, (job.source,))
     forward, _ = schemes_of(job)
     explicit = job.command == "erode" and forward == "explicit"
-    check_command(job.command, read_header(job.source, band=job.band), kind="explicit" if explicit else "")
-    terrain = read_terrain(job.source, band=job.band, channel=job.channel)
+    check_command(job.command, read_header(job.source, band=job.band, georef=input_georef(job)),
+                  kind="explicit" if explicit else "")
+    terrain = read_terrain(job.source, band=job.band, channel=job.channel, georef=input_georef(job))
     terrain.check_valid(job.source)
     check_metres(terrain, job.source, job.force)
     outputs.check_source(terrain, job.source)
@@ -312,6 +320,9 @@ def write_result(prepared: PreparedJob, result: ErosionResult) -> str:
         if job.preview is not None:
             field_preview(change, terrain, change_preview_path(job.change_map),
                           "Δh due to the processes (m)", title=job.change_map.name, diverging=True)
+    if job.snapshots_nc is not None:
+        write_series(job.snapshots_nc, result.snapshots, ELEVATION,
+                     f"{job.command} snapshots of {job.source.name}")
     finish_checkpoints(prepared.checkpoints, result.stepped)
     budget = sum(b.eroded for b in report.budgets.values()), sum(
         b.deposited for b in report.budgets.values())

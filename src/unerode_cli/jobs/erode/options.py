@@ -15,6 +15,7 @@ from unerode_cli.run.common_options import (
     RASTER_OUTPUT,
     READING,
     SEA_LEVEL,
+    SNAPSHOTS_NC,
     SOURCE,
 )
 from unerode_cli.run.declare import Opt, parameter_options
@@ -46,6 +47,7 @@ OPTIONS = (
     Opt("no_substep", bool, False, "Refuse an unstable --dt instead of sub-stepping it.", kind="flag"),
     Opt("snapshot_every", float, None, "Write a numbered snapshot OUTPUT_k every this many simulated years.",
         parser=POSITIVE_YEARS, record=False),
+    SNAPSHOTS_NC,
     Opt("change_map", Path, None, "Write the signed change (m) due to the processes (uplift excluded): "
         "< 0 erosion, > 0 deposition.", role="output", record=False),
     Opt("scheme", str, None, "Fluvial scheme. erode: implicit (Braun & Willett 2013 with Yuan et al. "

@@ -18,6 +18,7 @@ from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.flow.options import OPTIONS
 from unerode_cli.processes.parameters import ParamSpec
 from unerode_cli.run.boundaries import Boundaries, boundaries_from_options
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.memory import check_command
@@ -71,8 +72,8 @@ class FlowJob(Job):
             if path is not None:
                 outputs.read(path)
         written.check(self.dem)
-        check_command("flow", read_header(self.dem, band=self.band))
-        terrain = read_terrain(self.dem, band=self.band, channel=self.channel)
+        check_command("flow", read_header(self.dem, band=self.band, georef=input_georef(self)))
+        terrain = read_terrain(self.dem, band=self.band, channel=self.channel, georef=input_georef(self))
         terrain.check_valid(self.dem)
         written.check_source(terrain, self.dem)
         bounds = boundaries_from_options(terrain, self.outlets, self.sea_level, self.dirichlet)

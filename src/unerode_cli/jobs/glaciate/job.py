@@ -19,6 +19,7 @@ from unerode_cli.glacier import coupled
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import read_header
 from unerode_cli.jobs.glaciate.options import OPTIONS
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.glacial.options import GlacierRun
 from unerode_cli.run.glacial.outputs import flow_statistics, write_flow, write_glacier
@@ -75,7 +76,7 @@ def check_sizes(run: GlacierJob) -> None:
             check_step_count(span / every, f"--snapshot-every {every:g} y over {span:g} y",
                              "give a larger --snapshot-every")
     if run.iceflow == "blatter" and run.layers >= 1:
-        header = read_header(run.source, band=run.band)
+        header = read_header(run.source, band=run.band, georef=input_georef(run))
         levels = float(run.layers) + 1.0
         check_fits(levels * header.cells * BLATTER_BYTES_PER_LEVEL_CELL,
                    f"the ice-flow lattice of --layers {run.layers:,} on {header.size_text()}",

@@ -13,6 +13,7 @@ from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.paths import OutputPlan, atomic_path
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.jobs.hypsometry.options import OPTIONS
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.memory import check_fits
@@ -45,7 +46,7 @@ class HypsometryJob(Job):
             outputs.check_output(self.csv, self.overwrite)
         if self.plot is not None:
             check_png(self.plot, self.overwrite)
-        return [(dem, read_terrain(dem).elevation) for dem in self.dems]
+        return [(dem, read_terrain(dem, georef=input_georef(self)).elevation) for dem in self.dems]
 
     def run(self, planned: list[tuple[Path, np.ndarray]],
             progress: Progress) -> list[tuple[Path, Hypsometry]]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from unerode_cli.run.common_options import OVERWRITE
+from unerode_cli.run.common_options import GEOREF, OVERWRITE
 from unerode_cli.run.declare import Opt
 
 OPTIONS = (
@@ -15,5 +15,6 @@ OPTIONS = (
     Opt("bins", int, 50, "Number of elevation bins.", minimum=1),
     Opt("normalise", str, "max", "max: elevation / highest elevation (001 Fig. 15); range: (h − min)/(max − "
         "min) (Strahler); none: metres.", choices=("max", "range", "none")),
+    *GEOREF,
     OVERWRITE,
 )

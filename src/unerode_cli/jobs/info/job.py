@@ -14,6 +14,7 @@ from unerode_cli.io.provenance import history
 from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.info.options import OPTIONS
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.memory import check_read
@@ -26,8 +27,8 @@ class InfoJob(Job):
     def plan(self, outputs: OutputPlan) -> Terrain:
         """Read the DEM, once its header says that its cells fit in memory (refused if not)."""
         outputs.read(self.dem)
-        check_read(read_header(self.dem, band=self.band))
-        return read_terrain(self.dem, band=self.band, channel=self.channel)
+        check_read(read_header(self.dem, band=self.band, georef=input_georef(self)))
+        return read_terrain(self.dem, band=self.band, channel=self.channel, georef=input_georef(self))
 
     def run(self, planned: Terrain, progress: Progress) -> None:
         summary = describe(planned, self.dem)

@@ -21,6 +21,7 @@ from unerode_cli.io.paths import OutputPlan, atomic_path
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.landforms.options import OPTIONS
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.memory import check_fits
@@ -81,11 +82,11 @@ class LandformsJob(Job):
             files = self.report_files()
             outputs.check_output(files[JSON_NAME], self.overwrite)
             check_png(files[PNG_NAME], self.overwrite)
-        terrain = read_terrain(self.dem)
+        terrain = read_terrain(self.dem, georef=input_georef(self))
         terrain.check_valid(self.dem)
         before = None
         if self.before is not None:
-            earlier = read_terrain(self.before)
+            earlier = read_terrain(self.before, georef=input_georef(self))
             earlier.check_valid(self.before)
             before = earlier.elevation
         try:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from unerode_cli.run.common_options import OUTLETS, OVERWRITE, SOURCE, renamed
+from unerode_cli.run.common_options import GEOREF, OUTLETS, OVERWRITE, SOURCE, renamed
 from unerode_cli.run.declare import Opt
 from unerode_cli.run.values import Number
 
@@ -30,5 +30,6 @@ OPTIONS = (
     Opt("min_lake_depth", float, 0.5, "A lake is deeper than this somewhere (m); shallower pits are DEM "
         "noise.", parser=METRES_AT_LEAST_0, panel=MEASURES),
     OUTLETS,
+    *GEOREF,
     OVERWRITE,
 )

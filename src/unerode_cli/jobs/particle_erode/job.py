@@ -68,6 +68,7 @@ from unerode_cli.particles import (
 )
 from unerode_cli.particles import Terrain as ParticleTerrain
 from unerode_cli.particles.simulate import ParticleIterations
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.divergence import DivergenceGuard
 from unerode_cli.run.fingerprint import run_fingerprint
@@ -179,7 +180,7 @@ def plan(job: ParticleJob, plan_outputs: OutputPlan | None = None) -> PreparedPa
     check_checkpoint(job.output, job.resume, job.overwrite, inputs)
     outputs, layers_out = _clear_outputs(job, inputs)
     checks.check_counts(job)
-    dem = read_terrain(job.source, band=job.band, channel=job.channel)
+    dem = read_terrain(job.source, band=job.band, channel=job.channel, georef=input_georef(job))
     dem.check_valid(job.source)
     outputs.check_source(dem, job.source)
     notes: list[str] = []

@@ -10,6 +10,7 @@ from unerode_cli.io.paths import OutputPlan
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.jobs.preview.options import OPTIONS
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job
 from unerode_cli.run.outputs import check_previewable, preview
@@ -28,7 +29,7 @@ class PreviewJob(Job):
             raise InputError(f"the preview must be a .png file, got {self.png.name}.")
         if self.cmap != "sea-land" and self.cmap not in colormaps:
             raise InputError(f"unknown colour map '{self.cmap}'.")
-        terrain = read_terrain(self.dem, band=self.band, channel=self.channel)
+        terrain = read_terrain(self.dem, band=self.band, channel=self.channel, georef=input_georef(self))
         check_previewable(terrain, self.dem)
         return terrain
 

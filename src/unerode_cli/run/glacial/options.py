@@ -18,6 +18,7 @@ from unerode_cli.run.common_options import (
     POSITIVE_YEARS,
     RASTER_OUTPUT,
     READING,
+    SNAPSHOTS_NC,
     SOURCE,
     with_default,
 )
@@ -147,6 +148,7 @@ SIDE_OUTPUTS = (
         "eroded volumes, lake area.", role="output", panel=SIDE_OUTPUT_PANEL, record=False),
     Opt("snapshot_every", float, None, "Write the ice thickness every this many years: ICE_001.tif, ... "
         "after --ice (else OUT_ice_001.tif, ...).", parser=POSITIVE_YEARS, panel=SIDE_OUTPUT_PANEL),
+    SNAPSHOTS_NC,
 )
 
 OPTIONS = (

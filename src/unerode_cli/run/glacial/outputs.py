@@ -19,6 +19,8 @@ from unerode_cli.glacier import coupled, cycle, lakes
 from unerode_cli.io.checkpoints import checkpoint_path
 from unerode_cli.io.csv_tables import write_table
 from unerode_cli.io.grid_rasters import write_bands
+from unerode_cli.io.netcdf_files import write_series
+from unerode_cli.io.netcdf_raster import ICE_THICKNESS
 from unerode_cli.io.paths import atomic_path
 from unerode_cli.io.provenance import history_entry, write_sidecar
 from unerode_cli.run.glacial.plan import PreparedGlacierRun, chronology_png_path
@@ -145,6 +147,9 @@ def write_glacier(prepared: PreparedGlacierRun, outcome: GlacierOutcome) -> str:
                f"{_rock_summary(volumes)}{_solve_summary(prepared, result)}; wrote {run.output}")
     if solves_warning(result, prepared.params.flow_rtol):
         summary += "\n" + solves_warning(result, prepared.params.flow_rtol)
+    if run.snapshots_nc is not None:
+        write_series(run.snapshots_nc, outcome.snapshots, ICE_THICKNESS,
+                     f"glaciate ice snapshots of {run.source.name}")
     checkpoint_path(run.output).unlink(missing_ok=True)
     return summary
 

@@ -32,9 +32,11 @@ from unerode_cli.io.checkpoints import check_checkpoint
 from unerode_cli.io.ela_files import read_ela_proxy, read_ela_table
 from unerode_cli.io.gdal_io import WriteOptions
 from unerode_cli.io.grid_rasters import read_on_grid
+from unerode_cli.io.netcdf_files import check_series
 from unerode_cli.io.paths import OutputPlan, check_output
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import provenance
 from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.glacial.options import (
@@ -94,7 +96,7 @@ def plan_glacier(run: GlacierRun, outputs: OutputPlan, sea_level: Callable[[floa
     _check_outputs(run, snapshot_times, write)
     if not run.diagnostic:
         check_checkpoint(run.output, run.resume, run.overwrite, (run.source,))
-    terrain = read_terrain(run.source, band=run.band, channel=run.channel)
+    terrain = read_terrain(run.source, band=run.band, channel=run.channel, georef=input_georef(run))
     terrain.check_valid(run.source)
     check_metres(terrain, run.source, run.force)
     if run.preview is not None:
@@ -291,6 +293,8 @@ def _check_outputs(run: GlacierRun, snapshot_times: list[float], write: WriteOpt
                          f"got {run.velocity.name}.")
     for path in rasters:
         check_raster(path, write, run.replaces, inputs)
+    if run.snapshots_nc is not None:
+        check_series(run.snapshots_nc, bool(snapshot_times), "--snapshot-every", run.replaces, inputs)
     for png in pngs:
         check_png(png, run.replaces, inputs)
     if run.timeline is not None:
