@@ -14,6 +14,7 @@ from unerode_cli.cli.convert import convert
 from unerode_cli.cli.diff import diff
 from unerode_cli.cli.ensemble import ensemble
 from unerode_cli.cli.erode import erode, unerode
+from unerode_cli.cli.examples import epilog
 from unerode_cli.cli.flow import flow
 from unerode_cli.cli.glaciate import glaciate
 from unerode_cli.cli.hypsometry import hypsometry
@@ -37,7 +38,8 @@ COMMANDS: dict[str, Callable[..., None]] = {
 
 def register(app: typer.Typer) -> typer.Typer:
     """Add every subcommand of :data:`COMMANDS` to ``app`` (in table order), each reporting bad
-    option values as bad input (:class:`~unerode_cli.cli.values.Command`); returns ``app``."""
+    option values as bad input (:class:`~unerode_cli.cli.values.Command`) and ending its help
+    with its examples (:mod:`unerode_cli.cli.examples`); returns ``app``."""
     for name, command in COMMANDS.items():
-        app.command(name, cls=Command)(command)
+        app.command(name, cls=Command, epilog=epilog(name))(command)
     return app

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from unerode_cli.io.rasters import read_terrain
-from unerode_cli.io.terrain import Terrain
+if TYPE_CHECKING:
+    from unerode_cli.io.terrain import Terrain
 
 #: Levels of messages (the verbosity at which they start to show).
 SUMMARY = -1
@@ -23,6 +24,8 @@ DEBUG = 2
 
 def load(path: Path, band: int | None = None, channel: str | None = None) -> Terrain:
     """Read the input heightfield (never opened for writing)."""
+    from unerode_cli.io.rasters import read_terrain
+
     return read_terrain(path, band=band, channel=channel)
 
 

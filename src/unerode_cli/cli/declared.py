@@ -22,10 +22,13 @@ from typing import Annotated, Any
 import typer
 
 from unerode_cli.cli.common import DETAIL, NOTE, SUMMARY, say
-from unerode_cli.cli.errors import reported_errors
+from unerode_cli.cli.errors import EXIT_BAD_INPUT, reported_errors
 from unerode_cli.cli.options import Quiet, Verbose
 from unerode_cli.cli.values import for_typer
 from unerode_cli.run.declare import Opt
+
+#: The message of a positional input file that does not exist (``path`` filled in).
+MISSING_INPUT = "input {path} does not exist."
 
 
 def _escaped(text: str) -> str:
@@ -90,12 +93,15 @@ def plain(value: Any) -> Any:
 
 
 def command(job_path: str, help: str, epilog: str | None = None,
-            options: tuple[Opt, ...] | None = None) -> Callable[..., None]:
+            options: tuple[Opt, ...] | None = None, missing: str = MISSING_INPUT) -> Callable[..., None]:
     """A typer command for the job class ``module:Class`` (imported when the command runs;
-    ``options`` are its declarations, imported now). The summary goes to stderr; a summary
-    that carries an exit code ends the command with it."""
+    ``options`` are its declarations, imported now). A positional input path that does not
+    exist ends the command before the job's module is imported, with ``missing`` (formatted with
+    ``path``). The summary goes to stderr; a summary that carries an exit code ends the command
+    with it."""
     module_name, class_name = job_path.split(":")
     declarations = options if options is not None else _job_class(module_name, class_name).OPTIONS
+    inputs = [opt.name for opt in declarations if opt.argument and opt.role == "input" and opt.is_path]
     params = [parameter(opt) for opt in declarations]
     verbose_quiet = [
         inspect.Parameter("verbose", inspect.Parameter.KEYWORD_ONLY, default=0, annotation=Verbose),
@@ -104,6 +110,7 @@ def command(job_path: str, help: str, epilog: str | None = None,
 
     def run_command(**kwargs: Any) -> None:
         verbosity = kwargs.pop("verbose") - kwargs.pop("quiet")
+        refuse_missing_inputs([kwargs[name] for name in inputs], missing)
         with reported_errors(verbosity) as outputs:
             from unerode_cli.pipeline.commands import run_job
 
@@ -120,6 +127,17 @@ def command(job_path: str, help: str, epilog: str | None = None,
     run_command.__doc__ = help
     run_command.epilog = epilog  # type: ignore[attr-defined]
     return run_command
+
+
+def refuse_missing_inputs(values: list[Any], missing: str = MISSING_INPUT) -> None:
+    """End the command (exit 2) with ``error: MISSING.`` for the first path of ``values`` (paths
+    or lists of paths) that does not exist: the existence check of the input files, done before
+    any numerical or GIS library is imported; the job's own checks of its inputs come later."""
+    for value in values:
+        for path in value if isinstance(value, list) else [value]:
+            if isinstance(path, Path) and not path.exists():
+                print(f"error: {missing.format(path=path)}", file=sys.stderr)
+                raise typer.Exit(EXIT_BAD_INPUT)
 
 
 def _job_class(module_name: str, class_name: str) -> Any:
@@ -174,4 +192,4 @@ class TerminalProgress:
         return False
 
 
-__all__ = ["command", "parameter", "plain", "TerminalProgress", "Path"]
+__all__ = ["command", "parameter", "plain", "refuse_missing_inputs", "TerminalProgress", "Path"]

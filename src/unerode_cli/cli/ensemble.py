@@ -16,4 +16,4 @@ ensemble = command(
     "the others go on (exit code 1 then). The summary gives, per snapshot age, rasters of the members' "
     "mean, standard deviation and 5/50/95 percentiles, and, when the spec runs compare-terraces, "
     "members.csv ranked by the terrace RMSE with scatter plots of each parameter against the scores.",
-    options=OPTIONS)
+    options=OPTIONS, missing="ensemble spec {path} does not exist.")

@@ -14,20 +14,11 @@ from typing import Annotated
 import typer
 
 from unerode_cli.cli.errors import reported_errors
+from unerode_cli.cli.examples import epilog
 from unerode_cli.cli.options import Quiet, Verbose
 from unerode_cli.cli.values import Command
 
-EXAMPLES = """\
-Examples:
-
-  unerode-cli pipeline run pipelines/demo.yaml
-
-  unerode-cli pipeline run pipelines/demo.yaml --dry-run --resume
-
-  unerode-cli pipeline run pipelines/demo.yaml --resume --var dt=500
-
-  unerode-cli pipeline run theirs/spec.yaml --data ~/dems --var dem=~/dems/alps.tif
-
+SPEC_EXAMPLE = """\
 A minimal spec (relative paths are relative to the spec's folder):
 
   version: 1
@@ -52,7 +43,7 @@ pipeline_app = typer.Typer(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 
-@pipeline_app.command("run", epilog=EXAMPLES, cls=Command)
+@pipeline_app.command("run", epilog=epilog("pipeline run", SPEC_EXAMPLE), cls=Command)
 def run(
     spec: Annotated[Path, typer.Argument(help="Pipeline spec (YAML): version, vars, workdir, steps.")],
     resume: Annotated[bool, typer.Option("--resume", help="Skip the steps finished by an earlier run whose command line, inputs and outputs are unchanged.")] = False,
@@ -68,6 +59,9 @@ def run(
     Everything is validated before the first step runs (subcommands, options, types, variables, step references, input files). A spec stays in its folder: its workdir lies in the spec's folder, its outputs in the workdir, and its inputs in the workdir, the spec's folder, a --data folder or the shipped folders of the unerode-cli checkout (sample_dems/, pipelines/ and ../shared/data); any other path, symbolic links resolved, is refused unless given with --allow-outside. A step replaces only files that this spec wrote, listed with their sha256 in the state file. A failing step stops the run and keeps what the earlier steps wrote; `--resume` then continues from the failed step. Progress goes to stderr; the state of finished steps is kept in `.SPEC-STEM.state.json` in the workdir.
     """
     verbosity = verbose - quiet
+    from unerode_cli.cli.declared import refuse_missing_inputs
+
+    refuse_missing_inputs([spec], "pipeline spec {path} does not exist.")
     with reported_errors(verbosity):
         from unerode_cli.cli.common import SUMMARY, say
         from unerode_cli.pipeline.commands import schemas

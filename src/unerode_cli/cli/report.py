@@ -10,4 +10,5 @@ report = command(
     "Write one self-contained report.html of what a run folder holds: previews at each snapshot, chronology "
     "and timeline plots, the mass budget, parameters and history of climate-runs; terrace fits; an "
     "ensemble's summary maps, ranking and scatter plots. Images are embedded: the page needs no other file "
-    "and no network.", options=OPTIONS)
+    "and no network.", options=OPTIONS,
+    missing="the run folder {path} does not exist or is not a folder.")

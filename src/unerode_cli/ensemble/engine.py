@@ -24,9 +24,13 @@ import logging
 import os
 import tempfile
 import threading
+import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
+
+from unerode_cli.ensemble.progress import slow_cluster_warning
 
 Task = TypeVar("Task")
 
@@ -72,11 +76,54 @@ def available_cores() -> int:
 
 @dataclass
 class Cluster:
-    """A dask client ready to run tasks, each with ``threads`` numba threads."""
+    """A dask client ready to run tasks, each with ``threads`` numba threads; ``local`` for a
+    cluster of this machine, ``start_s`` the seconds it took to start (or to answer)."""
 
     client: Any
     threads: int
     retries: int
+    local: bool = False
+    start_s: float = 0.0
+
+    def workers(self) -> set[str]:
+        """Addresses of the workers the scheduler knows now."""
+        try:
+            return set(self.client.scheduler_info().get("workers", {}))
+        except Exception:  # noqa: BLE001 - a scheduler going away: no worker known
+            return set()
+
+    def running(self) -> int:
+        """Tasks the workers are processing now."""
+        try:
+            return sum(len(keys) for keys in self.client.processing().values())
+        except Exception:  # noqa: BLE001 - a scheduler going away: none known to run
+            return 0
+
+    @contextlib.contextmanager
+    def watched(self, on_note: Callable[[str], None], every_s: float = 1.0) -> Iterator[None]:
+        """While the block runs, say a line (``on_note``) when a worker leaves or joins the
+        cluster (checked every ``every_s`` seconds, in a thread)."""
+        stop = threading.Event()
+        known = self.workers()
+
+        def watch() -> None:
+            nonlocal known
+            while not stop.wait(every_s):
+                now = self.workers()
+                for address in sorted(known - now):
+                    on_note(f"worker {address} lost; its member runs again elsewhere "
+                            f"({len(now)} worker(s) left)")
+                for address in sorted(now - known):
+                    on_note(f"worker {address} joined ({len(now)} worker(s))")
+                known = now
+
+        thread = threading.Thread(target=watch, name="unerode-worker-watch", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            thread.join()
 
     def run(self, tasks: Sequence[Task], run: Callable[[Task], Any],
             on_result: Callable[[int, Any, BaseException | None], None]) -> None:
@@ -110,6 +157,7 @@ def connect(engine: Engine, tasks: int,
     import dask
     from distributed import Client, LocalCluster
 
+    started = time.perf_counter()
     if engine.scheduler is not None:
         try:
             client = Client(engine.scheduler, timeout=engine.timeout_s)
@@ -124,9 +172,12 @@ def connect(engine: Engine, tasks: int,
             workers = client.scheduler_info().get("workers", {})
             on_note(f"scheduler {engine.scheduler}: {len(workers)} worker(s); "
                     f"dashboard {client.dashboard_link}")
-            yield Cluster(client, engine.threads or 1, engine.retries)
+            yield Cluster(client, engine.threads or 1, engine.retries, False, time.perf_counter() - started)
         return
     workers, threads = engine.sizes(tasks)
+    slow = slow_cluster_warning(True, available_cores(), workers)
+    if slow:
+        warnings.warn(slow, stacklevel=3)
     with tempfile.TemporaryDirectory(prefix="unerode-dask-", ignore_cleanup_errors=True) as scratch:
         settings = {"distributed.scheduler.allowed-failures": engine.retries, "temporary-directory": scratch}
         with dask.config.set(settings):
@@ -137,7 +188,7 @@ def connect(engine: Engine, tasks: int,
             with cluster, Client(cluster) as client:
                 on_note(f"local cluster: {workers} worker(s) × {threads} numba thread(s); "
                         f"dashboard {client.dashboard_link}")
-                yield Cluster(client, threads, engine.retries)
+                yield Cluster(client, threads, engine.retries, True, time.perf_counter() - started)
 
 
 def run_tasks(tasks: Sequence[Task], run: Callable[[Task], Any], engine: Engine,

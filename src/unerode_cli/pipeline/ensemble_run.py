@@ -25,13 +25,15 @@ from __future__ import annotations
 import contextlib
 import functools
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from unerode_cli import __version__
-from unerode_cli.ensemble.engine import Engine, SchedulerUnreachable, connect
+from unerode_cli.ensemble.engine import Cluster, Engine, SchedulerUnreachable, connect
+from unerode_cli.ensemble.progress import Tally, short_members_warning
 from unerode_cli.errors import InputError
 from unerode_cli.io.ensemble_files import (
     DONE_FILE,
@@ -99,7 +101,7 @@ class EnsembleJob(Job):
         return plan_ensemble(self, schemas())
 
     def run(self, planned: EnsemblePlan, progress: Progress) -> EnsembleResult:
-        return run_ensemble(planned, progress.verbosity, on_note=progress.note)
+        return run_ensemble(planned, progress.verbosity, on_note=progress.note, progress=progress)
 
     def write(self, result: EnsembleResult, outputs: OutputPlan) -> str:
         text = result.summary
@@ -209,26 +211,34 @@ def _check_out_dir(job: EnsembleJob, record: dict[str, Any]) -> None:
 
 
 def run_ensemble(plan: EnsemblePlan, verbosity: int = 0,
-                 on_note: Callable[[str], None] = lambda text: None) -> EnsembleResult:
+                 on_note: Callable[[str], None] = lambda text: None,
+                 progress: Progress | None = None) -> EnsembleResult:
     """Run every member not finished yet, write failures.csv, then the summary. Nothing is
-    written before the engine answers."""
+    written before the engine answers. Each member that ends is a line (``on_note``) with the
+    members done, running and failed and the time left, and a step of ``progress`` (a bar on
+    a terminal); a worker lost or joined is a line too."""
     job = plan.job
     started = time.perf_counter()
     done = {m.index for m in plan.members if job.resume and is_done(m)}
     pending = [m for m in plan.members if m.index not in done and m.pipeline is not None]
     outcomes: dict[int, Outcome] = {}
+    tally = Tally(len(pending))
+    cluster = None
 
     def heard(i: int, outcome: Outcome | None, error: BaseException | None) -> None:
         member = pending[i]
         if outcome is None:
             outcome = Outcome(member.index, False, None, None, _task_error(error))
         outcomes[member.index] = outcome
+        tally.heard(outcome.finished, outcome.wall_s)
+        counts = tally.line(cluster.running() if cluster is not None else 0)
         state = f"finished in {outcome.wall_s:.1f} s" if outcome.finished else f"failed: {outcome.error}"
-        on_note(f"member {member.folder.name} {state} ({len(outcomes)}/{len(plan.members)})")
+        on_note(f"member {member.folder.name} {state} ({counts})")
+        if progress is not None:
+            progress.advance(counts)
 
     try:
         with contextlib.ExitStack() as stack:
-            cluster = None
             if pending:
                 try:
                     cluster = stack.enter_context(connect(job.engine, len(pending), on_note))
@@ -247,7 +257,8 @@ def run_ensemble(plan: EnsemblePlan, verbosity: int = 0,
                     + (f", {len(done)} finished earlier" if done else "")
                     + (f", {unresolved} that do not resolve" if unresolved else ""))
             if cluster is not None:
-                cluster.run(pending, functools.partial(run_member, verbosity=verbosity), heard)
+                _run_watched(cluster, pending, functools.partial(run_member, verbosity=verbosity), heard,
+                             tally, on_note, progress)
     except KeyboardInterrupt:
         _note_interrupted(plan)
         raise
@@ -258,6 +269,27 @@ def run_ensemble(plan: EnsemblePlan, verbosity: int = 0,
                  "error": o.error} for o in failed])
     summary = summarise(_summary_job(plan, ordered), on_note)
     return EnsembleResult(len(failed), f"{summary}; {time.perf_counter() - started:.1f} s")
+
+
+def _run_watched(cluster: Cluster, pending: list[Member], run: Callable[[Member], Outcome],
+                 heard: Callable[[int, Outcome | None, BaseException | None], None], tally: Tally,
+                 on_note: Callable[[str], None], progress: Progress | None) -> None:
+    """Run the pending members on the cluster, a worker lost or joined said as a line, with a
+    progress bar of the members; after, a warning when the members were shorter than the
+    cluster's start."""
+    workers = len(cluster.workers())
+    if progress is not None:
+        progress.start(len(pending), "ensemble members", unit="members")
+    tally.started_s = time.perf_counter()
+    try:
+        with cluster.watched(on_note):
+            cluster.run(pending, run, heard)
+    finally:
+        if progress is not None:
+            progress.finish()
+    short = short_members_warning(tally, cluster.start_s, workers)
+    if short:
+        warnings.warn(short, stacklevel=2)
 
 
 def _task_error(error: BaseException | None) -> str:
