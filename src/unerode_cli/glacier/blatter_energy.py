@@ -139,6 +139,20 @@ def gauss_weights(q):
 
 
 @numba.njit(cache=True, inline="always")
+def _add_to_columns(g, k, j, i, j1, i1, m00, m01, m10, m11, d00, d01, d10, d11):
+    """Add the gradient with respect to the four corner columns' mid-height means (m_a) and
+    differences (d_a) of a cell to its nodes: ½·m_a − d_a below (level k), ½·m_a + d_a above."""
+    g[k, j, i] += 0.5 * m00 - d00
+    g[k + 1, j, i] += 0.5 * m00 + d00
+    g[k, j, i1] += 0.5 * m01 - d01
+    g[k + 1, j, i1] += 0.5 * m01 + d01
+    g[k, j1, i] += 0.5 * m10 - d10
+    g[k + 1, j1, i] += 0.5 * m10 + d10
+    g[k, j1, i1] += 0.5 * m11 - d11
+    g[k + 1, j1, i1] += 0.5 * m11 + d11
+
+
+@numba.njit(cache=True, inline="always")
 def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps2):
     """Energy of the cells (k, j, ·) of one row of one layer, four in-plane Gauss points a
     cell at mid-height; their gradient added to gu, gv (rows j and j + 1, wrapped).
@@ -229,22 +243,8 @@ def _cell_row(u, v, zeta, gu, gv, k, j, ncx, dx, dy, tilt, b_visc, p, rho_g, eps
             gdv01 += n01 * gzv
             gdv10 += n10 * gzv
             gdv11 += n11 * gzv
-        gu[k, j, i] += 0.5 * gmu00 - gdu00
-        gu[k + 1, j, i] += 0.5 * gmu00 + gdu00
-        gu[k, j, i1] += 0.5 * gmu01 - gdu01
-        gu[k + 1, j, i1] += 0.5 * gmu01 + gdu01
-        gu[k, j1, i] += 0.5 * gmu10 - gdu10
-        gu[k + 1, j1, i] += 0.5 * gmu10 + gdu10
-        gu[k, j1, i1] += 0.5 * gmu11 - gdu11
-        gu[k + 1, j1, i1] += 0.5 * gmu11 + gdu11
-        gv[k, j, i] += 0.5 * gmv00 - gdv00
-        gv[k + 1, j, i] += 0.5 * gmv00 + gdv00
-        gv[k, j, i1] += 0.5 * gmv01 - gdv01
-        gv[k + 1, j, i1] += 0.5 * gmv01 + gdv01
-        gv[k, j1, i] += 0.5 * gmv10 - gdv10
-        gv[k + 1, j1, i] += 0.5 * gmv10 + gdv10
-        gv[k, j1, i1] += 0.5 * gmv11 - gdv11
-        gv[k + 1, j1, i1] += 0.5 * gmv11 + gdv11
+        _add_to_columns(gu, k, j, i, j1, i1, gmu00, gmu01, gmu10, gmu11, gdu00, gdu01, gdu10, gdu11)
+        _add_to_columns(gv, k, j, i, j1, i1, gmv00, gmv01, gmv10, gmv11, gdv00, gdv01, gdv10, gdv11)
     return energy
 
 
