@@ -30,22 +30,22 @@ Sliding (001 Eq. 6): basal shear stress τ_b = C·|u_b|^(σ−1) along −u_b; C
 the basal node velocity is held at zero.
 
 Default C (``DEFAULT_SLIDING_C`` = 2e4 Pa·(y/m)^(1/2) for σ = 3/2), calibrated on observed
-sliding, not on 001 Table 1. The sliding energy (C/σ)·|u_b|^σ·dS of Eq. 7 must have the units
-of the other two terms (Pa·m³/y), so C is in Pa·m^(1−σ)·y^(σ−1); Table 1 prints "500 – ∞
+sliding, not on 001 Table 1. The sliding energy (C/σ)·|u_b|^σ·dS of Eq. 7 must have the units of
+the other two terms (Pa·m³/y), so C is in Pa·m^(1−σ)·y^(σ−1); Table 1 prints "500 – ∞
 Pa·m^(−σ)·y^σ", which is not that unit (it is off by m/y), so its number cannot be converted.
-Read in the consistent unit, C = 500 (the value 1000 used here before) makes the sliding
-velocity u_b = (τ_b/C)² = 40 km/y (10 km/y) under τ_b = 100 kPa, the typical basal drag of
-valley glaciers (50–150 kPa, Cuffey & Paterson 2010, ch. 8), where measured sliding is 10–100
-m/y. Real DEMs showed it: with C = 1000, a 100 × 100 crop of the Grindelwald DEM (46 m) under
-an ELA of 2900 m slid at 5 km/y (median surface speed of the ice thicker than 20 m) within 20
-y, thin ice on 50–60° walls (τ_b = ρgH·sin α ≈ 70 kPa for H = 10 m) at 5–8 km/y, and the
-bed lost up to 250 m in 100 y (abrasion k_e·u^2.02, 001 §6.1). C = 2e4 gives u_b = 25 m/y at
-100 kPa, 56 m/y at 150 kPa and 6 m/y at 50 kPa, the range of measured Alpine sliding, and
-agrees with IGM's default Weertman law calibrated on Alpine glaciers (τ_b = c·|u_b|^(1/3),
-c = 0.0464 MPa·m^(−1/3)·y^(1/3): 10 m/y at 100 kPa, 34 m/y at 150 kPa; Jouvet et al. 2022)
-within a factor 2.5 in speed over 100–150 kPa. On the same crop it gives surface speeds of
-30 m/y (median), erosion of ~0.5 mm/y under the ice (Herman et al. 2015 measured 0.01–10s
-mm/y), and the L-BFGS solves converge in ~50 iterations instead of hitting their cap of 1000.
+Read in the consistent unit, C = 500 makes the sliding velocity u_b = (τ_b/C)² = 40 km/y (10
+km/y) under τ_b = 100 kPa, the typical basal drag of valley glaciers (50–150 kPa, Cuffey &
+Paterson 2010, ch. 8), where measured sliding is 10–100 m/y. Real DEMs show it: with C = 1000, a
+100 × 100 crop of the Grindelwald DEM (46 m) under an ELA of 2900 m slid at 5 km/y (median
+surface speed of the ice thicker than 20 m) within 20 y, thin ice on 50–60° walls (τ_b = ρgH·sin
+α ≈ 70 kPa for H = 10 m) at 5–8 km/y, and the bed lost up to 250 m in 100 y (abrasion
+k_e·u^2.02, 001 §6.1). C = 2e4 gives u_b = 25 m/y at 100 kPa, 56 m/y at 150 kPa and 6 m/y at 50
+kPa, the range of measured Alpine sliding, and agrees with IGM's default Weertman law calibrated
+on Alpine glaciers (τ_b = c·|u_b|^(1/3), c = 0.0464 MPa·m^(−1/3)·y^(1/3): 10 m/y at 100 kPa, 34
+m/y at 150 kPa; Jouvet et al. 2022) within a factor 2.5 in speed over 100–150 kPa. On the same
+crop it gives surface speeds of 30 m/y (median), erosion of ~0.5 mm/y under the ice (Herman et
+al. 2015 measured 0.01–10s mm/y), and the L-BFGS solves converge in ~50 iterations instead of
+hitting their cap of 1000.
 
 |u_b|_M² = u_b² + v_b² + (u_b ∂x b + v_b ∂y b)² is the squared velocity along the bed (001 §4.1's
 M-norm, read with the bed slope ∂b, which its printed form garbles), and the sliding energy is
@@ -352,24 +352,14 @@ def _lbfgs(obj: _Objective, x: np.ndarray, direction_of, drive: float, rtol: flo
 #: 2·MG_MIN_NODES nodes (and, if periodic, an even count); no coarse level below that.
 MG_MIN_NODES = 16
 #: L-BFGS iterations per multigrid cycle: before and after the coarse correction on every level but
-#: the coarsest, and on the coarsest. One before and one after took 14 fine-level evaluations a
-#: step of the melting 256² bench ice cap instead of 18 (energy within 0.13 % of a converged
-#: solve's) and 1000 y of Grindelwald 16 % less time, but the Fig. 14 runs
-#: (``test_fig14_coupling``, 40 × 60) then kept 38 m of ice where they melt out: the energy rule's
-#: contraction factors (below) are measured with two and two.
+#: the coarsest, and on the coarsest.
 MG_PRE, MG_POST, MG_COARSE = 2, 2, 10
 #: Iterations before and after the coarse correction on the finest level of a hierarchy of at
 #: least MG_FINE_LEVELS levels (64 nodes or more along an axis), where the coarse levels carry
-#: most of a cycle's work and the finest level's evaluations most of its cost. From the 001 Fig. 6
-#: states at 50 and 90 ky (256², dt 50 y, one cycle a step either way), 20 steps took 5.2–5.5 s
-#: instead of 6.2–7.9 s and 11.2–11.4 s instead of 13.2–13.9 s, the energy after the first step's
-#: solve 8.3e-4 of |E| above a converged solve's instead of 6.2e-4, and the ice volume after
-#: the 20 steps within 0.3 %; the 512² bench ice cap 1.88 s a step instead of 2.34. The Fig. 14
-#: valleys (two levels) keep two and two. Thin valley glaciers pay for it: 1000 y of Grindelwald
-#: (dt 20 y) take 4061 evaluations instead of 3025, 45 s instead of 38–39 s, as more solves need a
-#: second cycle; one light cycle at the start of a solve only (3906), or only where the warm start's
-#: relative residual is at most 1 (3484; 0.35–0.6 on the Fig. 6 ice sheet, 1.2–2 on Grindelwald),
-#: did not win it back.
+#: most of a cycle's work and the finest level's evaluations most of its cost. On the 256² bench
+#: ice cap, solves to 1e-3 cost 116–122 finest-level evaluations' worth whether the finest and
+#: coarser levels take one or two iterations and the coarsest 3, 5 or 10 (two and two on the
+#: finest: 143).
 MG_FINE_PRE, MG_FINE_POST, MG_FINE_LEVELS = 1, 1, 3
 #: Contraction factor of E − E_min per cycle assumed after the first cycle of a solve (measured:
 #: 0.2–0.5 on the thick bench ice cap, 0.9 on the thin ice it leaves when it melts back).

@@ -1,9 +1,8 @@
 """Numba kernels of the lattice (``lattice``): node elevations and degrees of freedom.
 
 Each is one pass over the nodes, without the temporaries of a vectorised NumPy form, and gives
-the same numbers bit for bit (``tests/glacier/test_lattice_kernels.py`` holds the NumPy forms).
-At 256² × 10 layers: the elevations 3.7 → 0.3 ms, the degrees of freedom 12 → 0.75 ms; both are
-rebuilt on every level of the multigrid at every velocity solve.
+the same numbers bit for bit (``tests/glacier/test_lattice_kernels.py`` holds the NumPy forms);
+both are rebuilt on every level of the multigrid at every velocity solve.
 """
 
 from __future__ import annotations
