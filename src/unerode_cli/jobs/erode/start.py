@@ -30,7 +30,8 @@ def take_elevation(terrain: Terrain, guard: DivergenceGuard) -> np.ndarray:
     ``terrain.grid.valid``, the mask it equals, rather than its own."""
     start = terrain.elevation
     guard.inside = terrain.grid.valid
-    compact = start.astype(np.float32)
+    with np.errstate(over="ignore"):  # values beyond float32 become ±inf and are not held
+        compact = start.astype(np.float32)
     if not (start.dtype == np.float64 and start.flags.c_contiguous and _held(compact.ravel(), start.ravel())):
         return np.array(start, dtype=np.float64, copy=True)
     terrain.elevation = compact
