@@ -241,4 +241,5 @@ def test_help_shows_examples() -> None:
     result = run_cli("pipeline", "run", "--help")
     assert result.returncode == 0
     assert "--resume" in result.stdout and "--dry-run" in result.stdout
-    assert "unerode-cli pipeline run pipelines/demo.yaml --resume --var dt=500" in result.stdout
+    assert "unerode-cli pipeline run pipelines/last_glacial_cycle.yaml --resume" in result.stdout
+    assert (Path(__file__).resolve().parents[2] / "pipelines" / "last_glacial_cycle.yaml").is_file()
