@@ -46,8 +46,7 @@ from unerode_cli.sandstone.particles import Particles
 KINETIC_VISCOUS_SHARE = 0.25
 #: Below this many particles the substeps run on one thread: a substep has seven parallel
 #: loops, each ending at a barrier, and on a busy machine (threads descheduled) the barriers of a
-#: small substep cost more than the work they share (measured: 45 000 particles, 2 threads on 2
-#: loaded cores, ~100 ms per substep; 1 thread ~10 ms). The result does not depend on it.
+#: small substep cost more than the work they share. The result does not depend on it.
 SERIAL_BELOW = 100_000
 
 
