@@ -50,6 +50,12 @@ class DivergenceGuard:
                 f"the DEM's elevations span {values.min():.3g} to {values.max():.3g} m, a relief too large "
                 "to compute with; check its values and units (metres).")
 
+    def share(self, reference: np.ndarray, inside: np.ndarray) -> None:
+        """Measure against ``reference`` and ``inside`` from now on, arrays the caller keeps anyway:
+        the same start values (e.g. a float32 copy that holds them exactly) and the same domain
+        mask, so the guard holds no grid of its own."""
+        self.reference, self.inside = reference, inside
+
     def allowed_change(self, elapsed_years: float) -> float:
         """Largest |h − h₀| (m) a sane run may reach after ``elapsed_years``."""
         return RELIEF_FACTOR * self.relief + FLOOR_M + self.uplift_rate * abs(elapsed_years)

@@ -29,13 +29,13 @@ def take_elevation(terrain: Terrain, guard: DivergenceGuard) -> np.ndarray:
     terrain keeps its grid. ``guard`` (made on ``terrain.elevation``) reads the domain from
     ``terrain.grid.valid``, the mask it equals, rather than its own."""
     start = terrain.elevation
-    guard.inside = terrain.grid.valid
     with np.errstate(over="ignore"):  # values beyond float32 become ±inf and are not held
         compact = start.astype(np.float32)
     if not (start.dtype == np.float64 and start.flags.c_contiguous and _held(compact.ravel(), start.ravel())):
+        guard.share(guard.reference, terrain.grid.valid)
         return np.array(start, dtype=np.float64, copy=True)
     terrain.elevation = compact
-    guard.reference = compact
+    guard.share(compact, terrain.grid.valid)
     return start
 
 
