@@ -11,6 +11,15 @@ That is a first-order approximation: benthic δ18O mixes ice volume (sea level) 
 temperature, so the linear map reproduces the large glacial–interglacial swings (tens of
 metres of error at some ages), not the details.
 
+**A sea-level table extended with δ18O** (:func:`extend_with_d18o`): where a run is older than
+the table's oldest age (Spratt & Lisiecki 2016 ends at 798 ka), the table is continued with
+sea level from δ18O through the least-squares line of the table against δ18O over their
+overlap (:func:`fit_mapping`), and the table's residual at its oldest age is carried across the
+join and tapered linearly to zero over ``taper_ka`` (default 10 ka), so that the curve is
+continuous there. For LR04 and Spratt 2016 (0–798 ka, 799 pairs): sea = 209.35 m − 65.052 m/‰
+· δ18O, residual RMS 14.67 m; the residual at 798 ka is −6.23 m (table −101.33 m, line
+−95.10 m), so the extension starts at −101.33 m and meets the line at 808 ka.
+
 Units: ages in ka (thousands of years before present) — these table functions work in ka by
 nature; sea level in metres relative to present (0 m at 0 ka, negative = lower than today, see
 :func:`unerode_cli.climate.chronology.parse_table` for the anchoring); δ18O in ‰.
@@ -92,6 +101,62 @@ def fit_mapping(d18o: Series, sea: Series) -> SeaLevelMapping:
         raise ValueError("δ18O is constant over the ages shared with the sea-level series, so no line fits")
     slope = float(np.sum(dx * (y - y.mean())) / spread)
     return SeaLevelMapping(slope=slope, intercept=float(y.mean() - slope * x.mean()))
+
+
+#: How far past the join the table's last residual is carried onto the δ18O line (ka).
+JOIN_TAPER_KA = 10.0
+
+
+def residual_rms(d18o: Series, sea: Series, mapping: SeaLevelMapping) -> float:
+    """RMS (m) of ``sea`` minus ``mapping``(δ18O) at the sea-level ages inside both tables."""
+    inside = (sea.age_ka >= d18o.start_ka) & (sea.age_ka <= d18o.end_ka)
+    residual = sea.value[inside] - np.asarray(mapping(d18o.at(sea.age_ka[inside])))
+    return float(np.sqrt(np.mean(residual * residual)))
+
+
+def extend_with_d18o(sea: Series, d18o: Series, taper_ka: float = JOIN_TAPER_KA) -> Series:
+    """``sea`` (m) continued beyond its oldest age with sea level from ``d18o`` (‰).
+
+    Beyond the join age a_j (the table's oldest age), at the δ18O table's own ages up to its
+    oldest::
+
+        sea(a) = M(δ18O(a)) + r_j · max(0, 1 − (a − a_j) / taper_ka)
+
+    where M is the least-squares line of the table against δ18O over their overlap
+    (:func:`fit_mapping`) and r_j = sea(a_j) − M(δ18O(a_j)) the table's residual at the join.
+    The table's own sample at a_j is kept, so the curve is continuous there (the first step
+    past it is that of the line plus the tapered residual). Within the table's range the values
+    are the table's. A table that already reaches the δ18O table's oldest age is
+    returned as it is. The series' ``note`` states the line, its residual RMS and the join.
+
+    Args:
+        sea: sea level (m relative to present) by age (ka).
+        d18o: benthic δ18O (‰) by age (ka), covering the join age.
+        taper_ka: ka over which the join residual goes to zero (> 0).
+
+    Raises:
+        ValueError: ``taper_ka`` ≤ 0, the δ18O table does not cover the join age, or the two
+            share fewer than two ages (one sentence).
+    """
+    if not (math.isfinite(taper_ka) and taper_ka > 0.0):
+        raise ValueError(f"the taper of the sea-level join must be a positive number of ka, got {taper_ka:g}")
+    join = sea.end_ka
+    if d18o.end_ka <= join:
+        return sea
+    if not d18o.covers(join):
+        raise ValueError(f"the δ18O table ({d18o.start_ka:g}–{d18o.end_ka:g} ka) does not reach the end "
+                         f"of the sea-level table at {join:g} ka, so it cannot extend it")
+    mapping = fit_mapping(d18o, sea)
+    residual = float(sea.value[-1]) - float(mapping(d18o.at(join)))
+    ages = d18o.age_ka[d18o.age_ka > join]
+    taper = np.maximum(0.0, 1.0 - (ages - join) / taper_ka)
+    values = np.asarray(mapping(d18o.at(ages))) + residual * taper
+    note = (f"{sea.note + '; ' if sea.note else ''}beyond {join:g} ka: sea = {mapping.intercept:.2f} m "
+            f"{mapping.slope:+.3f} m/‰ × δ18O (fit over the overlap, residual RMS "
+            f"{residual_rms(d18o, sea, mapping):.2f} m), the join residual {residual:+.2f} m tapered "
+            f"to 0 over {taper_ka:g} ka")
+    return Series(np.concatenate((sea.age_ka, ages)), np.concatenate((sea.value, values)),
+                  sea.name, sea.unit, note, sea.changes)
 
 
 def sea_level(age_ka: float | np.ndarray, sea: Series | None = None, d18o: Series | None = None,

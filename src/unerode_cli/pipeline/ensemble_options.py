@@ -21,6 +21,9 @@ OPTIONS = (
         panel=SWEEP_PANEL),
     Opt("var", str, None, "Set a variable declared under vars: NAME=VALUE (repeatable).", kind="multiple",
         panel=SWEEP_PANEL),
+    Opt("allow_inert_axes", bool, False, "Run a sweep axis that cannot change any member's result (e.g. "
+        "sea-level curves on a domain the sea never reaches, with the same climate phases), which is "
+        "refused otherwise; it is recorded in ensemble.json.", kind="flag", panel=SWEEP_PANEL),
     Opt("data", Path, None, "A folder whose files the members' steps may read, besides the spec's folder "
         "(repeatable).", kind="multiple", panel=SWEEP_PANEL, record=False),
     Opt("allow_outside", Path, None, "A file or folder outside the spec's folder that you trust this spec to "

@@ -18,6 +18,12 @@ included, each once) and says to rerun with ``--resume``.
 own folder only; a path leading elsewhere, also one that only a swept value names, refuses the
 whole ensemble before any member runs. A sweep of more than :data:`~unerode_cli.ensemble.sweep.MAX_MEMBERS`
 members is refused before any member is made.
+
+**Inert axes.** A list of sea-level curves that cannot change any member's result (judged by
+:mod:`unerode_cli.jobs.climate_run.sea_axes` on the members' climate-run steps) is refused
+before any member runs, unless ``--allow-inert-axes``: then a warning line before the members
+start and the axis under ``inert_axes`` in ``ensemble.json``. An axis that acts only through
+the climate phases is told in a note.
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ from typing import Any
 from unerode_cli import __version__
 from unerode_cli.ensemble.engine import Cluster, Engine, SchedulerUnreachable, connect
 from unerode_cli.ensemble.progress import Tally, short_members_warning
+from unerode_cli.ensemble.sweep import Sweep
 from unerode_cli.errors import InputError
 from unerode_cli.io.ensemble_files import (
     DONE_FILE,
@@ -51,11 +58,13 @@ from unerode_cli.io.ensemble_files import (
 )
 from unerode_cli.io.json_files import jsonable
 from unerode_cli.io.paths import OutputPlan, active_plan, file_sha256
+from unerode_cli.jobs.climate_run.sea_axes import SEA_OPTION, AxisCheck, judge_sea_axis
 from unerode_cli.jobs.ensemble import MemberResult, SummaryJob, summarise
-from unerode_cli.pipeline.commands import schemas
+from unerode_cli.pipeline.commands import build_job, schemas
 from unerode_cli.pipeline.ensemble_member import Member, Outcome, is_done, member_record, run_member
 from unerode_cli.pipeline.ensemble_options import OPTIONS
 from unerode_cli.pipeline.ensemble_spec import (
+    Target,
     load_ensemble_spec,
     member_pipeline,
     member_spec,
@@ -101,6 +110,8 @@ class EnsembleJob(Job):
         return plan_ensemble(self, schemas())
 
     def run(self, planned: EnsemblePlan, progress: Progress) -> EnsembleResult:
+        for text in planned.notes:
+            progress.note(text)
         return run_ensemble(planned, progress.verbosity, on_note=progress.note, progress=progress)
 
     def write(self, result: EnsembleResult, outputs: OutputPlan) -> str:
@@ -119,6 +130,7 @@ class EnsemblePlan:
     members: list[Member]
     record: dict[str, Any]
     log_keys: frozenset[str]
+    notes: tuple[str, ...] = ()
 
     @property
     def out_dir(self) -> Path:
@@ -163,7 +175,44 @@ def plan_ensemble(job: EnsembleJob, schemas: Mapping[str, CommandSchema]) -> Ens
         except InputError as exc:
             members.append(Member(index, folder, parameters, None, str(exc)))
     logs = frozenset(p.key for p in sweep.sampled if p.kind == "log-uniform")
-    return EnsemblePlan(job, members, record, logs)
+    return EnsemblePlan(job, members, record, logs, _inert_axes(job, sweep, targets, members, record))
+
+
+def _inert_axes(job: EnsembleJob, sweep: Sweep, targets: Mapping[str, list[Target]], members: list[Member],
+                record: dict[str, Any]) -> tuple[str, ...]:
+    """Refuse a sweep axis that cannot change any member's result
+    (:mod:`~unerode_cli.jobs.climate_run.sea_axes`), unless ``--allow-inert-axes``: then a
+    warning, and the axis in ``record``; the lines to say before the members run."""
+    checks = [check for parameter in sweep.listed if len(set(parameter.values)) > 1
+              for target in targets[parameter.key] if target.option == SEA_OPTION
+              if (check := _sea_axis(parameter.key, target.step, members)) is not None]
+    inert = [c for c in checks if c.inert]
+    if inert and not job.allow_inert_axes:
+        raise InputError(f"{inert[0].sentence()}; leave the axis out, or pass --allow-inert-axes to run "
+                         "it anyway.")
+    if inert:
+        record["inert_axes"] = [c.record() for c in inert]
+    return tuple([f"warning: {c.sentence()}; its members run all the same (--allow-inert-axes)."
+                  for c in inert] + [f"note: {c.sentence()}." for c in checks if not c.inert])
+
+
+def _sea_axis(key: str, step_name: str, members: list[Member]) -> AxisCheck | None:
+    """The check of the sea-level axis ``key`` of climate-run step ``step_name``: the members'
+    jobs of that step, grouped by their other swept values (None when a step does not build)."""
+    groups: dict[str, list[Any]] = {}
+    for member in members:
+        if member.pipeline is None:
+            continue
+        step = next((s for s in member.pipeline.steps if s.name == step_name), None)
+        if step is None or step.command != "climate-run":
+            return None
+        try:
+            built = build_job(step.command, step.values, member.folder)
+        except InputError:
+            return None
+        others = sorted((k, repr(v)) for k, v in member.parameters.items() if k != key)
+        groups.setdefault(repr(others), []).append(built)
+    return judge_sea_axis(key, step_name, list(groups.values()))
 
 
 def _check_spec_kept(job: EnsembleJob, outputs: OutputPlan) -> None:

@@ -6,8 +6,11 @@ What crosses: the coarse surface is routed again with multiple flow directions (
 every edge and nodata border an outlet); each coarse cell just outside the fine map's
 footprint (the coarse cells whose centres fall on valid fine cells) sends the fraction of its
 discharge Q and of its leaving sediment flux Q_s that goes to a footprint cell into the fine
-map, at the fine cell nearest the midpoint of the two centres that is neither nodata nor an
-outlet of the fine run. Levels: the coarse elevation, interpolated bilinearly at the centres of
+map, at the fine cell under the midpoint of the two centres when that cell is neither nodata
+nor an outlet of the fine run; else (it is usually a boundary node, an outlet) at its lowest
+neighbour that is neither, the cell the water crossing there runs down to on the fine surface
+(a bank cell beside the channel would send it straight back into the boundary outlets); else
+at the nearest such cell. Levels: the coarse elevation, interpolated bilinearly at the centres of
 the fine boundary nodes. Between kept ages, both are linear in age.
 """
 
@@ -123,14 +126,29 @@ def _check_cover(coarse: Terrain, fine: Terrain, run: CoarseRun) -> None:
 
 
 def _nearest_free(fine: Terrain, outlets: np.ndarray) -> np.ndarray:
-    """int64[ny, nx] flat index of the nearest valid non-outlet fine cell (in metres)."""
+    """int64[ny, nx] flat index of the fine cell where inflow arriving on each cell enters: the
+    cell itself when it is valid and not an outlet ("free"); else its lowest free neighbour (of
+    8); else, without one, the nearest free cell (in metres)."""
     blocked = fine.nodata_mask | outlets
     if blocked.all():
         raise InputError("the fine DEM has no cell that is neither nodata nor an outlet for the "
                          "inflow to enter.")
     rows, cols = ndimage.distance_transform_edt(blocked, sampling=(fine.dy, fine.dx),
                                                 return_distances=False, return_indices=True)
-    return rows * fine.shape[1] + cols
+    ny, nx = fine.shape
+    entry = rows * nx + cols
+    z = np.where(blocked, np.inf, fine.elevation.astype(np.float64))
+    padded = np.pad(z, 1, constant_values=np.inf)
+    index = np.pad(np.arange(ny * nx, dtype=np.int64).reshape(ny, nx), 1, constant_values=-1)
+    lowest = np.full((ny, nx), np.inf)
+    for di, dj in OFFSETS:
+        around = padded[1 + di:1 + di + ny, 1 + dj:1 + dj + nx]
+        lower = around < lowest
+        lowest[lower] = around[lower]
+        entry[blocked & lower] = index[1 + di:1 + di + ny, 1 + dj:1 + dj + nx][blocked & lower]
+    free = ~blocked
+    entry[free] = np.flatnonzero(free)
+    return entry
 
 
 def _footprint(coarse: Terrain, fine: Terrain) -> np.ndarray:

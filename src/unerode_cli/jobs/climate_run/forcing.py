@@ -17,7 +17,7 @@ import numpy as np
 
 from unerode_cli.climate.chronology import YEARS_PER_KA, Series
 from unerode_cli.climate.phases import PhaseThresholds, classify
-from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, sea_level
+from unerode_cli.climate.sealevel import DEFAULT_MAPPING, SeaLevelMapping, extend_with_d18o, sea_level
 from unerode_cli.errors import InputError
 from unerode_cli.io.chronology_files import read_series
 from unerode_cli.run.stepping import check_step_count
@@ -80,10 +80,20 @@ class SeaLevelSource:
 
 
 def read_sea_level(job: ClimateJob, on_note: Callable[[str], None] | None) -> tuple[Series, SeaLevelSource]:
-    """The chronology, and the sea level by age from it, ``--sea-level`` and ``--d18o-to-sea``
-    (``on_note`` hears what was changed in the tables as read: rows left out or sorted)."""
+    """The chronology, and the sea level by age from it, ``--sea-level`` (continued beyond its
+    oldest age with δ18O by ``--sea-level-extend d18o``: ``climate.sealevel.extend_with_d18o``)
+    and ``--d18o-to-sea`` (``on_note`` hears what was changed in the tables as read: rows left
+    out or sorted)."""
+    if job.sea_level_extend != "none" and (job.sea_level_file is None or job.chronology_kind != "d18o"):
+        raise InputError(f"--sea-level-extend {job.sea_level_extend} continues a --sea-level table with "
+                         "the δ18O of --chronology; give both (with --chronology-kind d18o).")
     chronology = read_series(job.chronology, job.chronology_kind, on_note=on_note)
     sea = read_series(job.sea_level_file, "sea-level", on_note=on_note) if job.sea_level_file else None
+    if sea is not None and job.sea_level_extend == "d18o":
+        try:
+            sea = extend_with_d18o(sea, chronology)
+        except ValueError as exc:
+            raise InputError(f"{exc}.") from None
     mapping = SeaLevelMapping(*job.d18o_mapping) if job.d18o_mapping else DEFAULT_MAPPING
     return chronology, SeaLevelSource.of(job, chronology, sea, mapping)
 
@@ -131,16 +141,20 @@ def forcing(job: ClimateJob, steps: int, sea: SeaLevelSource) -> Forcing:
     k = np.arange(1, steps + 1, dtype=np.float64)
     end = job.from_ka + sign * k * job.dt / 1000.0
     mid = end - sign * 0.5 * job.dt / 1000.0
+    lo, hi = min(job.from_ka, job.to_ka), max(job.from_ka, job.to_ka)
     try:
         sea_mid, sea_end = sea.at(mid), sea.at(end)
         sea_start = float(sea.at(np.array([job.from_ka]))[0])
         # phases need the trend around each age: classify on a 1 ka grid, read at the middles
-        lo, hi = min(job.from_ka, job.to_ka), max(job.from_ka, job.to_ka)
         source = sea.series
         grid = np.arange(max(source.start_ka, lo - 30.0), min(source.end_ka, hi + 30.0) + 1e-9, 1.0)
         phases_on_grid = classify(grid, sea.at(grid), PhaseThresholds())
     except ValueError as exc:
-        raise InputError(f"{exc}") from None
+        hint = ""
+        if sea.sea is not None and sea.d18o is not None and hi > sea.sea.end_ka:
+            hint = (f" (the --sea-level table ends at {sea.sea.end_ka:g} ka; --sea-level-extend d18o "
+                    "continues it with sea level from the δ18O chronology)")
+        raise InputError(f"{str(exc).rstrip('.')}{hint}.") from None
     # nearest grid age (1 ka apart), the younger one on ties
     pick = np.clip(np.ceil(mid - grid[0] - 0.5).astype(np.int64), 0, grid.size - 1)
     return Forcing(end, mid, np.asarray(phases_on_grid)[pick], sea_mid, sea_end, sea_start)

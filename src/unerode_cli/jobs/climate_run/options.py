@@ -59,6 +59,10 @@ OPTIONS = (
         "fitted on LR04 vs Spratt & Lisiecki 2016).", flags=("--d18o-to-sea",),
         parser=Numbers("SLOPE,INTERCEPT: two numbers separated by a comma", 2), metavar="SLOPE,INTERCEPT",
         panel=CHRONOLOGY_PANEL),
+    Opt("sea_level_extend", str, "none", "Beyond the oldest age of --sea-level: none (a run older than the "
+        "table is refused) or d18o (continue it with sea level from the δ18O --chronology, by the "
+        "least-squares line of the table against δ18O over their overlap, the join residual tapered to "
+        "0 over 10 ka).", choices=("none", "d18o"), panel=CHRONOLOGY_PANEL),
     Opt("dt", float, 1000.0, "Time step (years, > 0).", parser=POSITIVE_YEARS, panel=RUN_PANEL),
     Opt("process", str, "fluvial,thermal", PROCESS_HELP, panel=RUN_PANEL),
     Opt("snapshots_ka", str, None, "Ages (ka, comma-separated) at which to write OUTPUT_<age>ka snapshots.",
