@@ -110,11 +110,13 @@ def test_members_are_ranked_by_their_terrace_rmse(ensemble_run) -> None:
 
 def test_the_reports_of_the_ensemble_and_of_a_member(ensemble_run, tmp_path: Path) -> None:
     _, out, _ = ensemble_run
-    page = check_page((out / "report.html").read_text(encoding="utf-8"))
+    page = check_page((out / "report.html").read_text(encoding="utf-8"), out)
     assert [h for h in page.headings if h in ("Ensemble", "Members, best first", "Summary maps",
-                                              "Parameters against scores")] == \
-        ["Ensemble", "Members, best first", "Summary maps", "Parameters against scores"]
-    assert len(page.images) == 2 * 2 + 2        # median and spread at 10 and 20 ka, 2 scatter plots
+                                              "Terrace fits", "Parameters against scores")] == \
+        ["Ensemble", "Members, best first", "Summary maps", "Terrace fits", "Parameters against scores"]
+    # at 10 and 20 ka: median, spread, median and best member minus the present; the terrace
+    # spread, the best and the median member's profiles; the pair matrix and 2 scatter plots
+    assert len(page.images) == 2 * 4 + 3 + 3
     ranking = next(t for t in page.tables if t[0][:3] == ["rank", "member", "status"])
     first = table(out / "members.csv")[0]
     assert ranking[1][1] == first["member"]

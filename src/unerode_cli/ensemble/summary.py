@@ -39,3 +39,28 @@ def ranks(scores: Sequence[float | None]) -> list[int | None]:
     for rank, (_, i) in enumerate(sorted(known), start=1):
         result[i] = rank
     return result
+
+
+#: The statistics of one number per member (e.g. the simulated height of the past riverbed at a
+#: terrace): the median, the 5 and 95 percentiles (NumPy's linear interpolation), the extremes
+#: and the standard deviation (population, ddof = 0), in the unit of the numbers.
+SPREAD = ("p50", "p5", "p95", "min", "max", "std")
+
+
+def value_spread(values: Sequence[float | None]) -> dict[str, float] | None:
+    """:data:`SPREAD` of the finite ``values`` (one per member; None or NaN for a member
+    without one), with ``members`` their count; None when no member has a value."""
+    known = np.array([v for v in values if v is not None and math.isfinite(v)], dtype=np.float64)
+    if known.size == 0:
+        return None
+    p50, p5, p95 = np.percentile(known, [50.0, 5.0, 95.0])
+    return {"p50": float(p50), "p5": float(p5), "p95": float(p95), "min": float(known.min()),
+            "max": float(known.max()), "std": float(known.std()), "members": int(known.size)}
+
+
+def median_position(count: int) -> int:
+    """Position (0-based) in a ranking of ``count`` ≥ 1 members of the median member: the middle
+    one, the better of the two middle ones for an even count."""
+    if count < 1:
+        raise ValueError("a ranking of no member has no median member")
+    return (count - 1) // 2

@@ -1,10 +1,10 @@
 """The summary of an ensemble (``OUT_DIR/summary/`` and ``OUT_DIR/members.csv``) from the
 outputs of its finished members.
 
-* **Rasters.** For each raster output of the members' pipeline that carries a snapshot age
-  (``UNERODE_AGE_KA``, e.g. climate-run's output and snapshots), ``summary/STEM_STAT.tif`` for
-  STAT in mean, std, p5, p50, p95 (``ensemble.summary``), with the members' grid and CRS and
-  the age tag.
+* **Rasters.** For each raster output of the members' pipeline that every finished member
+  wrote (an elevation, a snapshot at an age, a change map …), ``summary/STEM_STAT.tif`` for
+  STAT in mean, std, p5, p50, p95 (``ensemble.summary``), as cloud-optimised GeoTIFFs with the
+  members' grid and CRS and, for a snapshot, its age tag (``UNERODE_AGE_KA``).
 * **Scores.** When the pipeline runs ``compare-terraces``, each member's scores from its
   report's summary.json (the first such report): the terrace RMSE and bias (m) and the RMS of
   the incision-rate residuals (mm/ka). Members are ranked by the terrace RMSE (else the
@@ -146,12 +146,15 @@ def _write_members_table(job: SummaryJob, scores: dict[int, dict[str, Any]],
 
 
 def _write_rasters(job: SummaryJob, finished: list[MemberResult], on_note: Callable[[str], None]) -> int:
-    """The statistics rasters of every raster output with a snapshot age; their count."""
+    """The statistics rasters of every raster output that all finished members wrote; their
+    count."""
     written = 0
     for relative in job.rasters:
-        first = read_terrain(finished[0].folder / relative)
-        if AGE_TAG not in first.tags:
+        missing = [m.folder.name for m in finished if not (m.folder / relative).is_file()]
+        if missing:
+            on_note(f"note: member(s) {', '.join(missing)} wrote no {relative}; no summary of it.")
             continue
+        first = read_terrain(finished[0].folder / relative)
         layers = [first] + [read_terrain(m.folder / relative) for m in finished[1:]]
         if any(layer.shape != first.shape for layer in layers):
             on_note(f"note: the members' {relative} differ in size; no summary of it.")

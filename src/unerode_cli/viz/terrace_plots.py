@@ -1,10 +1,12 @@
 """Plots of a terrace comparison: long profiles of past riverbeds with the dated terraces
-(like 000 Fig. 12) and incision rates per period (like 000 Fig. 13)."""
+(like 000 Fig. 12), incision rates per period (like 000 Fig. 13), and the spread across the
+members of an ensemble of the simulated height at each terrace."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -127,3 +129,54 @@ def save_incision_plot(
     if title:
         ax.set_title(title)
     _save(plt, fig, path)
+
+
+def save_terrace_spread_plot(
+    path: Path | BinaryIO,
+    labels: list[str],
+    observed_m: np.ndarray,
+    uncertainty_m: np.ndarray,
+    members_m: np.ndarray,
+    best_m: np.ndarray | None = None,
+    title: str = "",
+) -> None:
+    """One column per dated terrace (``labels``, e.g. "young, 10 ka"): the simulated height of
+    the past riverbed above today's river (m) of every member (grey dots, ``members_m``
+    float[terraces, members], NaN where a member has none), their median (blue bar) and 5–95
+    percentile range (blue line), the best member's value (red circle, ``best_m``
+    float[terraces]) and the observed height with its uncertainty (orange, ``observed_m`` and
+    ``uncertainty_m`` float[terraces], NaN = none)."""
+    plt = _pyplot()
+    count = len(labels)
+    fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * count + 2.5), 4.3))
+    columns = np.arange(count, dtype=np.float64)
+    spread = 0.5 * (np.arange(members_m.shape[1]) / max(members_m.shape[1] - 1, 1) - 0.5)
+    for k in range(count):
+        ax.scatter(columns[k] - 0.12 + 0.35 * spread, members_m[k], s=12, color="0.55", alpha=0.8,
+                   label="members" if k == 0 else None, zorder=2)
+    known = np.isfinite(members_m)
+    filled = np.where(known, members_m, np.nan)
+    has = known.any(axis=1)
+    low, middle, high = (np.full(count, np.nan) for _ in range(3))
+    if has.any():
+        low[has], middle[has], high[has] = np.nanpercentile(filled[has], [5.0, 50.0, 95.0], axis=1)
+    ax.vlines(columns + 0.12, low, high, color=SIMULATED, lw=2.5, label="members, 5–95 %", zorder=3)
+    ax.hlines(middle, columns + 0.02, columns + 0.22, color=SIMULATED, lw=3, label="median member",
+              zorder=4)
+    if best_m is not None:
+        ax.scatter(columns + 0.12, best_m, s=70, facecolors="none", edgecolors="#d62728", lw=1.5,
+                   label="best member", zorder=5)
+    errors = np.where(np.isfinite(uncertainty_m), uncertainty_m, 0.0)
+    ax.errorbar(columns + 0.32, observed_m, yerr=errors, fmt="o", color=OBSERVED, mec="k", capsize=3,
+                label="observed terrace", zorder=5)
+    ax.set_xticks(columns + 0.1)
+    ax.set_xticklabels(labels, fontsize=8)
+    ax.set_xlim(-0.6, count - 0.3)
+    ax.set_ylabel("height above today's river (m)")
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="best")
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100, format="png")
+    plt.close(fig)

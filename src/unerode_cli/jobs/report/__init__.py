@@ -1,2 +1,3 @@
 """The `report` job (:mod:`.job`), its options (:mod:`.options`) and the sections of a page
-(:mod:`.sections`)."""
+(:mod:`.sections`; an ensemble's in :mod:`.ensemble`, its values as the reader wants them in
+:mod:`.spec_values`, maps on the CRS's axes in :mod:`.maps`)."""

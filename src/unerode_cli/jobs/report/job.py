@@ -54,7 +54,7 @@ class ReportJob(Job):
 
     def run(self, planned: list[Source], progress: Progress) -> list[Section]:
         """The sections: previews and plots drawn, tables read."""
-        return build_sections(planned)
+        return build_sections(planned, self.page.parent)
 
     def write(self, result: list[Section], outputs: OutputPlan) -> str:
         """Render and write the page (atomically); the summary names it and its size."""

@@ -1,9 +1,7 @@
 """The sections of a report: what unerode-cli wrote in a run folder, found by the files it
 writes (:func:`find_sources`), and the section of each (:func:`build_sections`):
 
-* an **ensemble** (``ensemble.json``): the members, the ranking of members.csv with the best
-  members' parameters, failures, the summary maps (median and spread of the elevation at each
-  snapshot age) and the parameter–score scatter plots;
+* an **ensemble** (``ensemble.json``): the sections of :mod:`.ensemble`;
 * each **climate-run** (``STEM_timeline.csv`` beside its raster ``STEM.tif``): the previews at
   each snapshot, the chronology and timeline plots, the mass budget, the parameters and the
   history;
@@ -11,7 +9,8 @@ writes (:func:`find_sources`), and the section of each (:func:`build_sections`):
   its subfolders): the fit, the terraces and incision rates, the profile plots;
 * any other **output** (a raster with its JSON sidecar): its preview, parameters and history.
 
-Images are drawn in memory and embedded (``viz.report_html``).
+Images are drawn in memory and embedded (``viz.report_html``); maps are on the axes of the
+raster's CRS (:mod:`.maps`).
 """
 
 from __future__ import annotations
@@ -24,25 +23,18 @@ from typing import Any, Literal
 
 import numpy as np
 
-from unerode_cli.io.ensemble_files import (
-    ENSEMBLE_FILE,
-    FAILURES_FILE,
-    MEMBERS_TABLE,
-    SUMMARY_FOLDER,
-    read_record,
-)
+from unerode_cli.io.ensemble_files import ENSEMBLE_FILE, read_record
 from unerode_cli.io.provenance import history, sidecar_path
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.report_files import read_png, read_rows
 from unerode_cli.io.terrain import Terrain
+from unerode_cli.jobs.report.ensemble import ensemble_sections
+from unerode_cli.jobs.report.maps import relief_png
 from unerode_cli.run.outputs import AGE_TAG, PHASE_TAG, SEA_TAG
-from unerode_cli.viz.preview import save_field_preview, save_preview
 from unerode_cli.viz.report_html import Figure, Section, Table, png_bytes
 from unerode_cli.viz.report_plots import save_series_panels
 
 RASTER_SUFFIXES = (".tif", ".tiff", ".exr")
-#: Rows of members.csv shown in an ensemble's ranking.
-RANKING_ROWS = 25
 _SNAPSHOT = re.compile(r"_(\d+(?:\.\d+)?)ka$")
 
 
@@ -76,10 +68,11 @@ def find_sources(folder: Path) -> list[Source]:
     return sources
 
 
-def build_sections(sources: list[Source]) -> list[Section]:
-    """The sections of ``sources``, in order (an ensemble gives several)."""
+def build_sections(sources: list[Source], page_dir: Path | None = None) -> list[Section]:
+    """The sections of ``sources``, in order (an ensemble gives several); links to files of the
+    run are relative to ``page_dir``, the folder of the page (default: the run's folder)."""
     builders: dict[str, Callable[[Source], list[Section]]] = {
-        "ensemble": lambda s: ensemble_sections(s.path),
+        "ensemble": lambda s: ensemble_sections(s.path, page_dir),
         "climate-run": lambda s: [climate_section(s.path)],
         "compare-terraces": lambda s: [terrace_section(s.path, s.record or {})],
         "output": lambda s: [output_section(s.path)],
@@ -161,67 +154,6 @@ def _timeline_blocks(timeline: Path) -> list:
 
 
 # ---------------------------------------------------------------------------------------------
-# An ensemble
-
-def ensemble_sections(folder: Path) -> list[Section]:
-    """An ensemble: overview, ranking and best members, failures, summary maps, scatter plots."""
-    record = read_record(folder / ENSEMBLE_FILE) or {}
-    members_path, failures_path = folder / MEMBERS_TABLE, folder / FAILURES_FILE
-    columns, rows = read_rows(members_path) if members_path.exists() else ([], [])
-    finished = sum(r.get("status") == "finished" for r in rows)
-    overview = Section("Ensemble")
-    overview.blocks.append(Table(["", ""], [
-        ["spec", record.get("spec", "?")], ["swept parameters", ", ".join(record.get("keys", []))],
-        ["members", len(record.get("members", []))], ["finished", finished],
-        ["failed", len(rows) - finished], ["seed", record.get("seed")],
-        ["Latin hypercube samples", record.get("samples") or "none (grid only)"]]))
-    sections = [overview]
-    if rows:
-        ranking = Section("Members, best first")
-        ranking.blocks.append("Ranked by the terrace RMSE of compare-terraces (else the incision-rate "
-                              "error); members.csv has every member.")
-        shown = [[_cell(r.get(c)) for c in columns] for r in rows[:RANKING_ROWS]]
-        ranking.blocks.append(Table(columns, shown, f"The first {len(shown)} of {len(rows)} members"))
-        sections.append(ranking)
-    if failures_path.exists():
-        failure_columns, failures = read_rows(failures_path)
-        if failures:
-            failed = Section("Failures")
-            failed.blocks.append(Table(failure_columns, [[r.get(c) for c in failure_columns]
-                                                         for r in failures]))
-            sections.append(failed)
-    summary = folder / SUMMARY_FOLDER
-    maps = Section("Summary maps")
-    for median in sorted(summary.glob("*_p50.tif"), key=lambda p: _age(read_terrain(p))):
-        maps.subsections.append(_summary_maps(median))
-    if maps.subsections:
-        sections.append(maps)
-    scatter = Section("Parameters against scores")
-    for png in sorted(summary.glob("scatter_*.png")):
-        scatter.blocks.append(Figure(read_png(png), png.stem[len("scatter_"):]))
-    if scatter.blocks:
-        sections.append(scatter)
-    return sections
-
-
-def _summary_maps(median_path: Path) -> Section:
-    """The median elevation of the members at one age, and their standard deviation."""
-    median = read_terrain(median_path)
-    stem = median_path.stem[: -len("_p50")]
-    section = Section(f"{stem}: {_age_text(median)}")
-    caption = f"median elevation of the members ({stem}_p50)"
-    section.blocks.append(Figure(_preview(median, caption), caption))
-    spread_path = median_path.with_name(f"{stem}_std.tif")
-    if spread_path.exists():
-        spread = read_terrain(spread_path)
-        caption = f"standard deviation of the members' elevation (m) ({stem}_std)"
-        section.blocks.append(Figure(png_bytes(lambda f: save_field_preview(
-            spread.elevation, median.elevation, median.dx, median.dy, f, "std (m)", title=caption,
-            cmap="magma_r")), caption))
-    return section
-
-
-# ---------------------------------------------------------------------------------------------
 # compare-terraces and other outputs
 
 def terrace_section(folder: Path, summary: dict[str, Any]) -> Section:
@@ -278,7 +210,7 @@ def _parameters_section(parameters: dict[str, Any], statistics: dict[str, Any], 
 
 
 def _preview(terrain: Terrain, title: str) -> bytes:
-    return png_bytes(lambda f: save_preview(terrain.elevation, terrain.dx, terrain.dy, f, title=title))
+    return relief_png(terrain, title)
 
 
 def _age(terrain: Terrain) -> float:
