@@ -3,10 +3,12 @@
 Big Tujunga (SRTM 30 m, ../shared/data): a 12 × 10 km box unerodes back 6 ka (fluvial, K 2e-5)
 at 90 m (the coarse run, with --write-fluxes) and at 30 m (the reference); a 2.7 × 2.7 km window
 of the main stem (90 × 90 cells of 30 m, rows 50–79 and columns 20–49 of the 90 m grid) runs
-at 30 m with inflow from the coarse run (nested) and without (alone), with every edge an outlet
-(the default) and with outlets on the edges the main stem leaves by (S, W). The RMSE (m) of each
-window against the reference's window (its 3-cell boundary ring left out) and the ratio
-alone / nested are printed as JSON.
+at 30 m with inflow from the coarse run (nested) and without (alone): with every edge an outlet,
+with outlets on the edges the main stem leaves by (S, W), and nested with the outlets a nested
+run takes when given none (where the coarse run's water leaves the window,
+``run.nesting.crossing_outlets``), compared with the lone window with outlets S, W (the edges
+that water leaves by, the fair lone run). The RMSE (m) of each window against the reference's
+window (its 3-cell boundary ring left out) and the ratios alone / nested are printed as JSON.
 
     .venv/bin/python bench/nested_scales.py [WORK_FOLDER]
 """
@@ -46,9 +48,11 @@ def main(work: Path) -> dict[str, float]:
     cli("convert", TUJUNGA, work / "window30.tif", "--crop", f"{x0},{y0},{x1},{y1}", "--overwrite")
     cli("climate-run", work / "coarse90.tif", work / "coarse_past.tif", *RUN, "--write-fluxes")
     cli("climate-run", work / "ref30.tif", work / "ref_past.tif", *RUN)
-    runs = {"nested_all": ("--inflow-from", work / "coarse_past.tif"), "alone_all": (),
+    runs = {"nested_all": ("--inflow-from", work / "coarse_past.tif", "--outlets", "all"),
+            "alone_all": ("--outlets", "all"),
             "nested_sw": ("--inflow-from", work / "coarse_past.tif", "--outlets", "S,W"),
-            "alone_sw": ("--outlets", "S,W")}
+            "alone_sw": ("--outlets", "S,W"),
+            "nested_auto": ("--inflow-from", work / "coarse_past.tif")}
     for name, extra in runs.items():
         cli("climate-run", work / "window30.tif", work / f"{name}.tif", *RUN, *extra)
     reference = read_terrain(work / "ref_past.tif")
@@ -64,7 +68,9 @@ def main(work: Path) -> dict[str, float]:
             "reference_change_rms_m": round(change, 3),
             "ratio_all_edges": round(rmse["alone_all"] / rmse["nested_all"], 2),
             "ratio_outlets_sw": round(rmse["alone_sw"] / rmse["nested_sw"], 2),
-            "ratio_outlets_sw_vs_alone_all_edges": round(rmse["alone_all"] / rmse["nested_sw"], 2)}
+            "ratio_outlets_sw_vs_alone_all_edges": round(rmse["alone_all"] / rmse["nested_sw"], 2),
+            "ratio_auto_outlets_vs_alone_sw": round(rmse["alone_sw"] / rmse["nested_auto"], 2),
+            "ratio_auto_outlets_vs_alone_all_edges": round(rmse["alone_all"] / rmse["nested_auto"], 2)}
 
 
 if __name__ == "__main__":

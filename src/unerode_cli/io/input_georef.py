@@ -6,6 +6,11 @@ grid for an input without a geotransform (an EXR from Houdini, a PNG); an input 
 has a different CRS or cell size is refused, since assigning would silently move it (nothing
 here reprojects). ``--nodata`` declares the input's nodata value: cells equal to it are nodata
 (NaN) and it is the nodata value written to the outputs.
+
+A raster that must lie on a DEM's grid (a parameter raster) takes that DEM's CRS and transform
+(as read, so with what ``--crs`` and ``--cell-size`` assigned to it) when it has none of its
+own (:meth:`InputGeoref.on_grid`); one with another CRS, transform or shape is left as it is,
+for the grid check (``io.grid_rasters.check_on_grid``) to refuse.
 """
 
 from __future__ import annotations
@@ -34,11 +39,21 @@ class InputGeoref:
             (metres without a CRS or in a metric projection); the grid's lower-left corner is
             put at (0, 0). None: keep the file's (1 m for an EXR without one).
         nodata: the input's nodata value (replaces the one the file declares); None: the file's.
+        grid_crs: the CRS (WKT) an input without one takes when ``crs`` is None ("": none).
+        grid_transform: the transform an input without one takes when ``cell_size`` is None.
     """
 
     crs: str | None = None
     cell_size: float | None = None
     nodata: float | None = None
+    grid_crs: str = ""
+    grid_transform: Affine | None = None
+
+    @classmethod
+    def on_grid(cls, crs_wkt: str, transform: Affine) -> InputGeoref:
+        """What a raster that must lie on a DEM's grid takes when it has no CRS (``crs_wkt``,
+        the DEM's WKT) or no geotransform (``transform``, the DEM's)."""
+        return cls(grid_crs=crs_wkt, grid_transform=transform)
 
     def __post_init__(self) -> None:
         if self.cell_size is not None and not (math.isfinite(self.cell_size) and self.cell_size > 0):
@@ -64,9 +79,10 @@ class InputGeoref:
     def resolve_crs(self, file_wkt: str, path: object) -> str:
         """The CRS (WKT) to use for a file whose own is ``file_wkt`` ("" when none): the file's
         when nothing is assigned, the assigned one when the file has none or the same one;
-        refused (InputError) when the file has another."""
+        refused (InputError) when the file has another. Without an assigned CRS, a file
+        without one takes ``grid_crs``."""
         if self.crs is None:
-            return file_wkt
+            return file_wkt or self.grid_crs
         assigned = parse_crs(self.crs)
         if not file_wkt:
             return assigned.to_wkt()
@@ -81,9 +97,10 @@ class InputGeoref:
                           path: object) -> Affine | None:
         """The transform to use for a file whose own is ``file_transform`` (None when it has
         none): the file's unless it has none and ``--cell-size`` is given; refused (InputError)
-        when the file's pixel size is not ``--cell-size``."""
+        when the file's pixel size is not ``--cell-size``. Without ``--cell-size``, a file
+        without a transform takes ``grid_transform``."""
         if self.cell_size is None:
-            return file_transform
+            return file_transform if file_transform is not None else self.grid_transform
         if file_transform is None:
             return self.transform(shape)
         px, py = file_transform.a, -file_transform.e

@@ -175,12 +175,14 @@ def _read_edge_base(edge_base: str, span_ka: tuple[float, float]) -> Series | No
 
 def base_levels_from_options(
     terrain: Terrain, outlets: str, dirichlet: Path | None, coast: str, edge_base: str,
-    sea_start: float | None, span_ka: tuple[float, float],
+    sea_start: float | None, span_ka: tuple[float, float], outlet_cells: np.ndarray | None = None,
 ) -> BaseLevels:
     """The boundary nodes of a climate run and what each follows, checked before any step.
 
     Args:
         outlets, dirichlet: draining edges and Dirichlet mask as for :func:`boundaries_from_options`.
+        outlet_cells: bool[ny, nx] further outlet cells besides those edges (a nested run's
+            boundary cells where its coarse run's water leaves, ``nesting.crossing_outlets``).
         coast: the coast (:func:`coast_cells`); its cells are outlets whatever ``outlets`` says.
         edge_base: "fixed", "uplift" or the path of a table ``age_ka,elevation_m``.
         sea_start: sea level at the start age (m); boundary nodes at or below it are sea.
@@ -188,7 +190,8 @@ def base_levels_from_options(
         span_ka: (start, end) ages of the run (ka).
     """
     coast_mask = coast_cells(terrain, coast)
-    nodes = boundaries_from_options(terrain, outlets, None, dirichlet, coast_mask).outlets(
+    fixed = coast_mask if outlet_cells is None else coast_mask | outlet_cells
+    nodes = boundaries_from_options(terrain, outlets, None, dirichlet, fixed).outlets(
         terrain.elevation, terrain)
     sea = nodes & ~coast_mask & (False if sea_start is None else terrain.elevation <= sea_start)
     table = _read_edge_base(edge_base, span_ka)

@@ -12,6 +12,20 @@ neighbour that is neither, the cell the water crossing there runs down to on the
 (a bank cell beside the channel would send it straight back into the boundary outlets); else
 at the nearest such cell. Levels: the coarse elevation, interpolated bilinearly at the centres of
 the fine boundary nodes. Between kept ages, both are linear in age.
+
+Where the water leaves (the fine run's outlets when it is given none, :func:`crossing_outlets`):
+the same routing's outflow crossings, at every coarse age the fine run's span needs. A crossing
+is a footprint cell that sends a share of a positive Q to a coarse cell outside the footprint
+of whose water at least :data:`LEAVING_SHARE` never comes back into the footprint downstream
+(water that leaves and re-enters, e.g. through a pit of the coarse surface just outside the
+edge, does not count), or a footprint cell that is itself an outlet of the coarse map (its edge
+or a nodata border) and receives water. Each crossing is placed at the fine cell under the
+midpoint of the two centres (the footprint cell's centre for a coarse outlet), moved to the
+nearest fine boundary cell (an edge cell or a border of the fine DEM's nodata), and widened
+to the fine boundary cells within half a coarse cell of it (Chebyshev distance in cells of the
+fine grid: the 3 fine cells of a 90 m face on a 30 m grid, none with equal cell sizes). Only
+those cells and the borders of the fine DEM's nodata drain out: the cells where inflow crosses
+are not outlets, so the entering water cannot run straight back out beside the channel.
 """
 
 from __future__ import annotations
@@ -19,11 +33,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy import ndimage
 
 from unerode_cli.errors import InputError
 from unerode_cli.hydro import outlet_mask, route
+from unerode_cli.hydro.routing import Routing
 from unerode_cli.io.coarse_runs import CoarseRun, CoarseState
 from unerode_cli.io.grid_rasters import same_crs
 from unerode_cli.io.terrain import Terrain
@@ -31,6 +47,9 @@ from unerode_cli.processes.inflow import InflowHistory, interpolate_rows
 
 #: Row and column offsets of the 8 neighbours, in the order of ``Routing.fractions``.
 OFFSETS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+#: An outflow crossing is where the water leaves when at least this share of what crosses there
+#: never comes back into the footprint downstream (dimensionless).
+LEAVING_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -78,15 +97,7 @@ def nest(coarse: CoarseRun, fine: Terrain, outlets: np.ndarray, nodes: np.ndarra
         InputError: the coarse ages do not cover the span, or a coarse grid in another CRS or
             not covering the fine map.
     """
-    ages = np.asarray(coarse.ages_ka)
-    lo, hi = min(span_ka), max(span_ka)
-    if ages[0] > lo + 1e-9 or ages[-1] < hi - 1e-9:
-        raise InputError(f"the coarse run {coarse.folder} kept ages {ages[0]:g}–{ages[-1]:g} ka, not "
-                         f"the whole fine run from {span_ka[0]:g} to {span_ka[1]:g} ka; run it over "
-                         "that span with --write-fluxes.")
-    first = max(int(np.searchsorted(ages, lo + 1e-9)) - 1, 0)
-    last = min(int(np.searchsorted(ages, hi - 1e-9)), ages.size - 1)
-    used = ages[first:last + 1]
+    used = _used_ages(coarse, span_ka)
     free = _nearest_free(fine, outlets)
     node_rows, node_cols = np.nonzero(nodes)
     entries: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
@@ -109,6 +120,54 @@ def nest(coarse: CoarseRun, fine: Terrain, outlets: np.ndarray, nodes: np.ndarra
         q[k, where], qs[k, where] = water, sediment
     inflow = InflowHistory(fine.shape, cells, used.astype(np.float64), q, qs)
     return Nesting(inflow, NodeLevels(used.astype(np.float64), np.array(levels)), int(cells.size))
+
+
+def crossing_outlets(coarse: CoarseRun, fine: Terrain, span_ka: tuple[float, float]) -> np.ndarray:
+    """bool[ny, nx] the fine boundary cells where the coarse run's water leaves the fine map's
+    footprint at any coarse age that the fine run's span (``span_ka``, ka) needs (module
+    docstring: "Where the water leaves").
+
+    Raises:
+        InputError: the coarse ages do not cover the span, a coarse grid in another CRS or not
+            covering the fine map, a coarse surface that cannot be routed, or no crossing at all.
+    """
+    markers = np.zeros(fine.shape, dtype=bool)
+    footprint = None
+    scale = 1.0
+    for age in _used_ages(coarse, span_ka):
+        state = coarse.state(float(age))
+        if footprint is None:
+            _check_cover(state.terrain, fine, coarse)
+            footprint = _footprint(state.terrain, fine)
+            scale = abs(state.terrain.transform.a) / abs(fine.transform.a)
+        rows, cols = _leaving(state, fine, footprint)
+        markers[rows, cols] = True
+    boundary = outlet_mask(fine.grid, "all")
+    if not markers.any() or not boundary.any():
+        raise InputError(f"the water of the coarse run {coarse.folder} leaves the fine map nowhere; "
+                         "give its outlets with --outlets.")
+    nearest = ndimage.distance_transform_edt(~boundary, sampling=(fine.dy, fine.dx),
+                                             return_distances=False, return_indices=True)
+    snapped = np.zeros(fine.shape, dtype=bool)
+    snapped[nearest[0][markers], nearest[1][markers]] = True
+    reach = max(int(0.5 * scale + 1e-9), 0)
+    if reach:
+        snapped = ndimage.binary_dilation(snapped, structure=np.ones((2 * reach + 1,) * 2, dtype=bool))
+    return snapped & boundary
+
+
+def _used_ages(coarse: CoarseRun, span_ka: tuple[float, float]) -> np.ndarray:
+    """float64[K] the coarse ages (ka, increasing) that bracket the fine run's ``span_ka``;
+    InputError when the coarse run does not cover it."""
+    ages = np.asarray(coarse.ages_ka, dtype=np.float64)
+    lo, hi = min(span_ka), max(span_ka)
+    if ages[0] > lo + 1e-9 or ages[-1] < hi - 1e-9:
+        raise InputError(f"the coarse run {coarse.folder} kept ages {ages[0]:g}–{ages[-1]:g} ka, not "
+                         f"the whole fine run from {span_ka[0]:g} to {span_ka[1]:g} ka; run it over "
+                         "that span with --write-fluxes.")
+    first = max(int(np.searchsorted(ages, lo + 1e-9)) - 1, 0)
+    last = min(int(np.searchsorted(ages, hi - 1e-9)), ages.size - 1)
+    return ages[first:last + 1]
 
 
 def _check_cover(coarse: Terrain, fine: Terrain, run: CoarseRun) -> None:
@@ -171,11 +230,7 @@ def _crossings(state: CoarseState, fine: Terrain, footprint: np.ndarray,
     Q_s (m³/y, float64[M])."""
     coarse = state.terrain
     grid = coarse.grid
-    try:
-        routing = route(coarse.elevation, grid, outlet_mask(grid, "all"), "mfd")
-    except ValueError as exc:
-        raise InputError(f"the coarse run at {state.age_ka:g} ka cannot be routed: {exc}.") from None
-    fractions = routing.fractions()
+    fractions = _routing(state).fractions()
     ring = ndimage.binary_dilation(footprint, structure=np.ones((3, 3), dtype=bool)) \
         & ~footprint & grid.valid
     rr, rc = np.nonzero(ring)
@@ -200,6 +255,73 @@ def _crossings(state: CoarseState, fine: Terrain, footprint: np.ndarray,
     unique, inverse = np.unique(np.concatenate(cells), return_inverse=True)
     return (unique, np.bincount(inverse, np.concatenate(water), unique.size),
             np.bincount(inverse, np.concatenate(sediment), unique.size))
+
+
+def _routing(state: CoarseState) -> Routing:
+    """The coarse surface at one age routed with multiple flow directions, every edge and
+    nodata border an outlet."""
+    grid = state.terrain.grid
+    try:
+        return route(state.terrain.elevation, grid, outlet_mask(grid, "all"), "mfd")
+    except ValueError as exc:
+        raise InputError(f"the coarse run at {state.age_ka:g} ka cannot be routed: {exc}.") from None
+
+
+def _leaving(state: CoarseState, fine: Terrain, footprint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The fine cells (rows, columns: int64[M] each, inside the fine grid) under the points where
+    water leaves the ``footprint`` (bool[cny, cnx]) at one age: the midpoints between each
+    footprint cell that sends a share of a positive Q to a cell outside the footprint, of whose
+    water at least :data:`LEAVING_SHARE` never comes back into it, and that cell; and the
+    centres of the footprint's coarse outlets that receive water."""
+    coarse = state.terrain
+    routing = _routing(state)
+    fractions = routing.fractions()
+    offsets = np.array(OFFSETS, dtype=np.int64)
+    back = _returning(routing.order.astype(np.int64), fractions, footprint, offsets)
+    wet = footprint & (state.discharge > 0)
+    fr, fc = np.nonzero(wet)
+    cny, cnx = coarse.shape
+    points_c, points_r = [fc + 0.5], [fr + 0.5]
+    keep = [routing.outlets[fr, fc]]
+    for k, (di, dj) in enumerate(OFFSETS):
+        tr, tc = fr + di, fc + dj
+        inside = (tr >= 0) & (tr < cny) & (tc >= 0) & (tc < cnx)
+        gone = ~inside
+        gone[inside] = ~footprint[tr[inside], tc[inside]] \
+            & (back[tr[inside], tc[inside]] <= 1.0 - LEAVING_SHARE)
+        keep.append(gone & (fractions[fr, fc, k] > 0))
+        points_c.append(fc + 0.5 + 0.5 * dj)
+        points_r.append(fr + 0.5 + 0.5 * di)
+    take = np.concatenate(keep)
+    x, y = coarse.transform @ (np.concatenate(points_c)[take], np.concatenate(points_r)[take])
+    col, row = ~fine.transform @ (x, y)
+    ny, nx = fine.shape
+    return (np.clip(np.floor(row).astype(np.int64), 0, ny - 1),
+            np.clip(np.floor(col).astype(np.int64), 0, nx - 1))
+
+
+@numba.njit(cache=True)
+def _returning(order: np.ndarray, fractions: np.ndarray, footprint: np.ndarray,
+               offsets: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """float64[ny, nx] the share of each coarse cell's water that reaches the ``footprint``
+    (bool[ny, nx]) downstream: 1 on the footprint, 0 on outlets that are not in it, else the sum
+    over its receivers of its ``fractions`` (float64[ny, nx, 8], in the order of ``offsets``,
+    int64[8, 2]) times theirs. ``order`` (int64[N]): the valid cells' flat indices by
+    descending routing surface, walked backwards so that receivers come first."""
+    ny, nx = footprint.shape
+    back = np.zeros((ny, nx))
+    for n in range(order.size - 1, -1, -1):
+        r, c = divmod(order[n], nx)
+        if footprint[r, c]:
+            back[r, c] = 1.0
+            continue
+        total = 0.0
+        for k in range(8):
+            share = fractions[r, c, k]
+            if share > 0.0:
+                total += share * back[r + offsets[k, 0], c + offsets[k, 1]]
+        back[r, c] = total
+    return back
 
 
 def _sample(coarse: Terrain, fine: Terrain, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

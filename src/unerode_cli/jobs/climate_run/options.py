@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from unerode_cli.run.common_options import (
@@ -79,7 +80,8 @@ OPTIONS = (
     Opt("uplift_map", Path, None, "Uplift raster (m/y) on the DEM's grid, multiplied through time by the "
         "factor of --uplift TABLE.csv (columns age_ka,factor); --uplift also takes a table age_ka,U_m_per_y, "
         "linear in age, covering the run.", role="input", panel=CHRONOLOGY_PANEL),
-    OUTLETS,
+    dataclasses.replace(OUTLETS, default=None, help=f"{OUTLETS.help} Default: all; in a nested run "
+                        "(--inflow-from), the boundary cells where the coarse run's water leaves this map."),
     DIRICHLET,
     INFLOW,
     FORCE,

@@ -46,7 +46,7 @@ from unerode_cli.run.fingerprint import run_fingerprint
 from unerode_cli.run.glacial.options import MODEL_PARAMETERS
 from unerode_cli.run.job import Progress
 from unerode_cli.run.memory import check_command
-from unerode_cli.run.nesting import Nesting, nest
+from unerode_cli.run.nesting import Nesting, crossing_outlets, nest
 from unerode_cli.run.outputs import Outputs, check_png, check_raster
 from unerode_cli.run.parameter_maps import resolve
 from unerode_cli.run.registry import REGISTRY, given_values, inflow_history_for, parse_process_list
@@ -124,8 +124,12 @@ def plan(job: ClimateJob, plan_outputs: OutputPlan | None = None, progress: Prog
     _check_scalable(job, schedule, base)
     uplift = _uplift_history(job, table, terrain, schedule)
     sea_start = run_forcing.sea_start if job.sea_outlets else None
-    base_levels = base_levels_from_options(terrain, job.outlets, job.dirichlet, job.coast,
-                                           job.edge_base_choice, sea_start, (job.from_ka, job.to_ka))
+    coarse = read_coarse_run(job.inflow_from) if job.inflow_from is not None else None
+    crossing = (crossing_outlets(coarse, terrain, (job.from_ka, job.to_ka))
+                if coarse is not None and job.outlets is None else None)
+    edges = job.outlets or ("none" if crossing is not None else "all")
+    base_levels = base_levels_from_options(terrain, edges, job.dirichlet, job.coast, job.edge_base_choice,
+                                           sea_start, (job.from_ka, job.to_ka), crossing)
     downstream = None
     if job.downstream_mask is not None or job.downstream_below is not None:
         mask = (load_on_grid(job.downstream_mask, terrain, "downstream mask") != 0
@@ -134,9 +138,9 @@ def plan(job: ClimateJob, plan_outputs: OutputPlan | None = None, progress: Prog
     start_outlets = base_levels.boundaries(sea_start)
     inflow = inflow_history_for(job.inflow, names, terrain, start_outlets)
     nesting = None
-    if job.inflow_from is not None:
+    if coarse is not None:
         nodes = base_levels.edge if base_levels.edge_base == COARSE else np.zeros(terrain.shape, bool)
-        nesting = nest(read_coarse_run(job.inflow_from), terrain,
+        nesting = nest(coarse, terrain,
                        start_outlets.outlets(terrain.elevation, terrain), nodes,
                        (job.from_ka, job.to_ka))
         inflow = nesting.inflow

@@ -22,6 +22,7 @@ from unerode_cli.analysis.terraces import Terrace
 from unerode_cli.errors import InputError
 from unerode_cli.hydro import outlet_mask
 from unerode_cli.io.grid_rasters import read_on_grid
+from unerode_cli.io.input_georef import InputGeoref
 from unerode_cli.io.observation_files import TerraceRow
 from unerode_cli.io.river_files import read_river_line
 from unerode_cli.io.terrain import Terrain
@@ -150,13 +151,14 @@ def placed_terraces(rows: list[TerraceRow], present: Terrain, river: RiverPath,
     return terraces
 
 
-def snapshot_beds(files: list[Path], present: Terrain, river: RiverPath,
-                  search_radius: float) -> tuple[list[tuple[float, np.ndarray]], list[dict]]:
+def snapshot_beds(files: list[Path], present: Terrain, river: RiverPath, search_radius: float,
+                  georef: InputGeoref | None = None) -> tuple[list[tuple[float, np.ndarray]], list[dict]]:
     """(age ka, riverbed elevations m along the river) of each snapshot, read one at a time on
-    the present DEM's grid, and the snapshots used ({path, age_ka}, oldest last)."""
+    the present DEM's grid with what ``georef`` assigns (``--crs``, ``--cell-size``,
+    ``--nodata``), and the snapshots used ({path, age_ka}, oldest last)."""
     beds, listed = [], []
     for path in files:
-        layer = read_on_grid(path, present, "snapshot")
+        layer = read_on_grid(path, present, "snapshot", georef)
         age = snapshot_age(layer, path)
         if age is None:
             raise InputError(f"snapshot {path} has no age: it lacks the {AGE_TAG} tag of climate-run "

@@ -36,6 +36,7 @@ from unerode_cli.jobs.compare_terraces.report_files import (
     terrace_rows,
     write_report,
 )
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress, Summary
 
@@ -93,7 +94,8 @@ class TerraceJob(Job):
                 outputs.check_output(path, self.overwrite)
         elif not self.out.parent.exists():
             raise InputError(f"the folder above the report folder {self.out} does not exist.")
-        present = read_terrain(self.present)
+        georef = input_georef(self)
+        present = read_terrain(self.present, georef=georef)
         present.check_valid(self.present)
         # a radius past the DEM's diagonal reaches no further cell than the diagonal itself
         ny, nx = present.shape
@@ -104,7 +106,7 @@ class TerraceJob(Job):
             river = main_river(present, parse_point(self.river_start), self.outlets, self.sea_level,
                                self.min_area_fraction)
         files = snapshot_files(entries, self.present)
-        beds, listed = snapshot_beds(files, present, river, radius)
+        beds, listed = snapshot_beds(files, present, river, radius, georef)
         present_bed = bed_profile(present.elevation, river, present.dx, present.dy, radius)
         if not np.isfinite(present_bed).any():
             raise InputError("the river lies entirely on nodata cells of the present DEM.")
@@ -146,8 +148,11 @@ class TerraceJob(Job):
         old, young, rates = snapshot_rates(history)
         overall = fit(terrace_results)
         river = planned.river
+        present = planned.present
         summary = {
             "present": str(self.present),
+            "grid": {"crs_wkt": present.crs_wkt, "transform": list(present.transform)[:6],
+                     "cell_size_m": [present.dx, present.dy]},
             "snapshots": planned.snapshots,
             "river": {"source": river.source, "length_m": river.length, "samples": int(river.chainage.size),
                       "search_radius_m": self.search_radius},

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from unerode_cli.run.common_options import OUTLETS, OVERWRITE, SEA_LEVEL
+from unerode_cli.run.common_options import GEOREF, OUTLETS, OVERWRITE, SEA_LEVEL
 from unerode_cli.run.declare import Opt
 from unerode_cli.run.values import Number
 
@@ -26,6 +26,7 @@ OPTIONS = (
         panel=INPUTS),
     Opt("incision", Path, None, "CSV of incision rates with the columns from_ka, to_ka and rate_mm_per_ka, "
         "and optionally uncertainty_mm_per_ka and name.", role="input", panel=INPUTS),
+    *GEOREF,
     Opt("river", Path, None, "River line in the DEM's CRS: GeoJSON or WKT LINESTRING (either direction).",
         role="input", panel=RIVER),
     Opt("auto_river", bool, False, "Extract the main channel by steepest descent instead of --river.",

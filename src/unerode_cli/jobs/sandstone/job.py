@@ -35,6 +35,7 @@ from unerode_cli.jobs.sandstone.frames import SandstoneFrames
 from unerode_cli.jobs.sandstone.options import OPTIONS
 from unerode_cli.jobs.sandstone.planning import PreparedSandstone
 from unerode_cli.jobs.sandstone.source import check_memory, check_sources, read_source, scene_path
+from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.job import Job, Progress
 from unerode_cli.run.stepping import Stepped, finish_checkpoints, step_through
@@ -61,7 +62,7 @@ class SandstoneJob(Job):
         if self.mesh is not None and not planning.mesh_in_out_dir(self):
             outputs.check_output(self.mesh, True)       # in OUT_DIR: cleared once OUT_DIR is made
         source = read_source(self.scene, self.particles, self.extrude, self.band, self.channel,
-                             self.parameter_values())
+                             self.parameter_values(), input_georef(self))
         job = planning.with_run_settings(self, source)
         check_sources(planning.water_sources(job), source)
         params = planning.simulation_params(job, source)

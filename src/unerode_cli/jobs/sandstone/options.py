@@ -17,6 +17,7 @@ from unerode_cli.run.common_options import (
     CHANNEL,
     CHECKPOINT_EVERY,
     CHECKPOINT_PANEL,
+    GEOREF,
     MAX_STEPS,
     METRES,
     OVERWRITE,
@@ -140,5 +141,6 @@ OPTIONS = (
                         "checkpointed, the outputs of the frames done written; continue with --resume)."),
     dataclasses.replace(BAND, help="Band of a multi-band DEM (1-based).", panel=RUN),
     dataclasses.replace(CHANNEL, help="EXR channel of the DEM (default: Y).", panel=RUN),
+    *GEOREF,
     OVERWRITE,
 ) + parameter_options({LAYER_PANEL: LAYER_PARAMETERS, ROCK_PANEL: ROCK_PARAMETERS})

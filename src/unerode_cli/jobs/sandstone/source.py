@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from unerode_cli.errors import InputError
+from unerode_cli.io.input_georef import InputGeoref
 from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.scene_files import is_scene_file, read_scene
 from unerode_cli.io.terrain import Terrain
@@ -59,31 +60,39 @@ def scene_path(scene: str) -> Path | None:
 
 
 def read_source(scene: str, particles: int | None, extrude: float | None, band: int | None,
-                channel: str | None, given: dict[str, str | None]) -> Source:
+                channel: str | None, given: dict[str, str | None],
+                georef: InputGeoref | None = None) -> Source:
     """The scene, preset or extruded DEM that ``scene`` names, its lattice for about
-    ``particles`` particles, and its layers and rock with the parameters ``given`` (SI units)."""
-    source = _read(scene, particles, extrude, band, channel)
+    ``particles`` particles, and its layers and rock with the parameters ``given`` (SI units);
+    ``georef`` is what ``--crs``, ``--cell-size`` and ``--nodata`` assign to a DEM."""
+    source = _read(scene, particles, extrude, band, channel, georef or InputGeoref())
     source.layers, source.rock = _overridden(source.layers, source.rock, given)
     return source
 
 
 def _read(scene: str, particles: int | None, extrude: float | None, band: int | None,
-          channel: str | None) -> Source:
+          channel: str | None, georef: InputGeoref) -> Source:
     path = Path(scene)
     if scene in PRESETS and not path.exists():
-        if extrude is not None:
-            raise InputError("--extrude applies to a DEM, not to a preset.")
+        _only_for_dems(extrude, georef, "a preset")
         return _scene_source(preset_scene(scene), f"preset {scene}", particles)
     if not path.exists():
         raise InputError(f"SCENE {scene} is neither a file nor a preset ({', '.join(PRESETS)}).")
     if is_scene_file(path):
-        if extrude is not None:
-            raise InputError("--extrude applies to a DEM, not to a scene file.")
+        _only_for_dems(extrude, georef, "a scene file")
         return _scene_source(read_scene(path), str(path), particles)
     if extrude is None:
         raise InputError(f"{path} is not a scene file (.yaml); a DEM needs --extrude BASE_M, the altitude "
                          "its rock starts from.")
-    return _dem_source(path, extrude, particles, band, channel)
+    return _dem_source(path, extrude, particles, band, channel, georef)
+
+
+def _only_for_dems(extrude: float | None, georef: InputGeoref, what: str) -> None:
+    """Refuse --extrude, --crs, --cell-size and --nodata for ``what`` (a preset or a scene file)."""
+    if extrude is not None:
+        raise InputError(f"--extrude applies to a DEM, not to {what}.")
+    if georef.given:
+        raise InputError(f"--crs, --cell-size and --nodata apply to a DEM, not to {what}.")
 
 
 def _scene_source(scene: Scene, description: str, particles: int | None) -> Source:
@@ -99,10 +108,11 @@ def _scene_source(scene: Scene, description: str, particles: int | None) -> Sour
 
 
 def _dem_source(path: Path, base: float, particles: int | None, band: int | None,
-                channel: str | None) -> Source:
-    """A DEM (m) filled with rock from ``base`` (m) up to its surface, with
-    :data:`DEM_HEADROOM` above; x and y in m from its south-west corner."""
-    dem = read_terrain(path, band=band, channel=channel)
+                channel: str | None, georef: InputGeoref) -> Source:
+    """A DEM (m; with the CRS, grid and nodata value ``georef`` assigns) filled with rock from
+    ``base`` (m) up to its surface, with :data:`DEM_HEADROOM` above; x and y in m from its
+    south-west corner."""
+    dem = read_terrain(path, band=band, channel=channel, georef=georef)
     dem.check_valid(path)
     if not math.isfinite(base):
         raise InputError(f"--extrude must be a finite altitude (m), got {base}.")
