@@ -2,26 +2,33 @@
 
 A synthetic V valley draining east (x, columns) with 30° walls, graded floor and a headwall;
 beyond the walls, 10° shoulders up to the map's north and south edges. The glacier is spun up
-without erosion under a constant ELA, then erodes its bed by abrasion and quarrying alone (no
-hill slope, debris flow or rivers: ``coupled.run`` with ``after=None``), Blatter–Pattyn or SIA.
+without erosion under a constant ELA (2100 m), then erodes its bed by abrasion and quarrying
+alone (no hill slope, debris flow or rivers: ``coupled.run`` with ``after=None``), Blatter–Pattyn
+or SIA, while the climate cools: the ELA falls linearly to ``ela_end`` (1763 m) by the end of the
+run, 337 m in all, about the depth the glacier cuts. Under a constant ELA the glacier sinks with
+its bed into warmer air and thins (``--constant-ela``): the trough's exponent then peaks at 1.53
+after 22.5 ky-equivalent and falls back as the ice thins to 45 m.
 
 Erosion (001 §6.1, Table 1): l = 2.02, k_e = 1.1e-6 m^(1−l)·y^(l−1) and k_q = 2.6e-4, the top of
 Table 1's ranges (its most erodible rock), both multiplied by a stated morphological factor F
-(as 001 Fig. 17 multiplies its erosion by 4): T simulated years erode like F·T years.
+(as 001 Fig. 17 multiplies its erosion by 4): T simulated years erode like F·T years. Default:
+F = 20 over 2250 years (45 ky-equivalent) in 20-year steps.
 
 Measure: the exponent b of z = z0 + a·|y − y0|^b (``analysis.landforms.fit_power_law``, the fit
 of the ``landforms`` command) on every column (the sections are straight across the valley)
 between the walls' tops (|y − y_c| ≤ the walls' half-width, the same window before and after),
 over the glacier's middle reach: the columns between 25 % and 75 % of the way from the head to
 the snout of the spun-up glacier (the last column whose centre holds ≥ 10 m of ice). b ≈ 1 for
-a V, 2 for a parabolic U. ``--diagnose`` prints, at the end of the spin-up and of the run, the
-ice thickness, sliding speed, quarrying focus Q and erosion rates across a middle section, and
-their means over the floor, the lower walls under the trough's margins and the wall films.
+a V, 2 for a parabolic U. The trough's b is fitted the same way within the spun-up trunk
+glacier's margins (``trough_half_widths``). ``--diagnose`` prints, at the end of the spin-up and
+of the run, the ice thickness, sliding speed, quarrying focus Q and erosion rates across a
+middle section, and their means over the floor, the lower walls under the trough's margins and
+the wall films.
 
 Usage::
 
-    NUMBA_NUM_THREADS=1 python bench/glacier_u_valley.py [--iceflow sia] [--factor 10]
-        [--years 3000] [--out docs] [--json out.json] [--diagnose]
+    NUMBA_NUM_THREADS=1 python bench/glacier_u_valley.py [--iceflow sia] [--factor 20]
+        [--years 2250] [--constant-ela] [--out docs] [--json out.json] [--diagnose]
 
 Writes ``u_valley_sections.png`` (before/after sections) and ``u_valley_map.png`` (bed lowering,
 ice outline, middle reach) into ``--out`` when given (with ``--tag`` in their names).
@@ -51,6 +58,8 @@ TABLE1_K_Q = 2.6e-4
 WALL_DEG = 30.0
 SHOULDER_DEG = 10.0
 SNOUT_ICE_M = 10.0
+#: The ELA (m) that the eroding run's climate cools to (module docstring).
+COOLED_ELA = 1763.0
 
 
 @dataclass(frozen=True)
@@ -90,16 +99,16 @@ class Setup:
 
     valley: Valley = field(default_factory=Valley)
     iceflow: str = "blatter"
-    factor: float = 10.0          # morphological acceleration F of k_e and k_q
+    factor: float = 20.0          # morphological acceleration F of k_e and k_q
     k_e: float = TABLE1_K_E
     k_q: float = TABLE1_K_Q
-    spinup_years: float = 2000.0
-    years: float = 3000.0         # simulated years of erosion (× factor = eroding years)
+    spinup_years: float = 1000.0
+    years: float = 2250.0         # simulated years of erosion (× factor = eroding years)
     dt: float = 20.0
     snapshot_every: float = 100.0
     snow_slopes: tuple[float, float] | None = None  # None: the model's default
     sliding_c: float | None = None                  # None: the model's default C
-    ela_end: float | None = None  # ELA (m) reached linearly at the end of the erosion (None: constant)
+    ela_end: float | None = COOLED_ELA  # ELA (m) reached linearly at the end of the erosion (None: constant)
     frozen_above: float | None = None  # what-if: C = ∞ (frozen) on walls this high above the floor (m)
 
 
@@ -279,10 +288,12 @@ def experiment(setup: Setup, diagnose_sections: bool = False) -> dict:
             series.append({"years": years, "eroding_years": years * setup.factor, "median_b": b,
                            "median_b_trough": bt,
                            "max_lowering_m": float(np.max(bed0 - state.bed)),
-                           "max_ice_m": float(state.thickness.max())})
+                           "max_ice_m": float(state.thickness.max()),
+                           "volume_km3": coupled.ice_volume(state.thickness, grid) / 1e9})
             print(f"  t = {years:6.0f} y (×F = {years * setup.factor:7.0f} y): median b {b:.3f} "
                   f"(trough {bt:.3f}), "
-                  f"lowered ≤ {np.max(bed0 - state.bed):.0f} m, ice ≤ {state.thickness.max():.0f} m, "
+                  f"lowered ≤ {np.max(bed0 - state.bed):.0f} m, ice ≤ {state.thickness.max():.0f} m "
+                  f"({series[-1]['volume_km3']:.3f} km³), "
                   f"{time.perf_counter() - started:.0f} s", flush=True)
 
     stops = np.arange(setup.snapshot_every, setup.years, setup.snapshot_every)
@@ -405,16 +416,17 @@ def plot(outcome: dict, out_dir: Path, tag: str = "") -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--iceflow", default="blatter", choices=("blatter", "sia"))
-    ap.add_argument("--factor", type=float, default=10.0)
-    ap.add_argument("--years", type=float, default=3000.0)
-    ap.add_argument("--spinup", type=float, default=2000.0)
+    ap.add_argument("--factor", type=float, default=Setup.factor)
+    ap.add_argument("--years", type=float, default=Setup.years)
+    ap.add_argument("--spinup", type=float, default=Setup.spinup_years)
     ap.add_argument("--dt", type=float, default=20.0)
     ap.add_argument("--ela", type=float, default=Valley.ela)
     ap.add_argument("--k-e", type=float, default=TABLE1_K_E)
     ap.add_argument("--k-q", type=float, default=TABLE1_K_Q)
     ap.add_argument("--snow-slopes", type=float, nargs=2, default=None)
     ap.add_argument("--sliding-c", type=float, default=None)
-    ap.add_argument("--ela-end", type=float, default=None)
+    ap.add_argument("--ela-end", type=float, default=COOLED_ELA)
+    ap.add_argument("--constant-ela", action="store_true", help="keep the spin-up's ELA while eroding")
     ap.add_argument("--frozen-above", type=float, default=None)
     ap.add_argument("--shape", type=int, nargs=2, default=(Valley.ny, Valley.nx))
     ap.add_argument("--dx", type=float, default=Valley.dx)
@@ -429,7 +441,8 @@ def main(argv: list[str] | None = None) -> int:
     setup = Setup(valley=valley, iceflow=args.iceflow, factor=args.factor, k_e=args.k_e, k_q=args.k_q,
                   spinup_years=args.spinup, years=args.years, dt=args.dt, snapshot_every=args.snapshot_every,
                   snow_slopes=tuple(args.snow_slopes) if args.snow_slopes else None,
-                  sliding_c=args.sliding_c, ela_end=args.ela_end, frozen_above=args.frozen_above)
+                  sliding_c=args.sliding_c, ela_end=None if args.constant_ela else args.ela_end,
+                  frozen_above=args.frozen_above)
     outcome = experiment(setup, args.diagnose)
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
