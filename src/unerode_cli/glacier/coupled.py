@@ -101,7 +101,7 @@ RETRY_MIN_DT = 0.5
 #: the levels spread).
 OVERSHOOT_TOLERANCE_M = 1.0
 
-ICEFLOWS = ("blatter", "sia")
+ICEFLOWS = ("blatter", "sia", "cnn")
 TRANSPORTS = ("multiscale", "explicit")
 BOUNDARIES = ("periodic", "open")
 
@@ -144,7 +144,9 @@ class CoupledParams:
     """Parameters of the coupled model (units in the module docstring).
 
     ``flow``: rheology, sliding and lattice (``blatter.FlowParams``; SIA uses A, n, ρ, g, C, σ).
-    ``iceflow``: ``"blatter"`` or ``"sia"``; ``transport``: ``"multiscale"`` or ``"explicit"``;
+    ``iceflow``: ``"blatter"``, ``"sia"`` or ``"cnn"`` (``cnn_iceflow``: a network trained on the fly
+    predicts the Blatter–Pattyn velocities, refined and guarded to ``flow_rtol``; needs PyTorch);
+    ``transport``: ``"multiscale"`` or ``"explicit"``;
     ``allow_substeps``: cut unstable explicit steps into sub-steps (else ``UnstableStep``).
     ``beta`` (1/y), ``p_max`` (m/y): 001 Eq. 2, number or raster; ``snow_slope_min``,
     ``snow_slope_max`` (degrees): the surface slopes between which accumulation falls from all
@@ -184,6 +186,10 @@ class CoupledParams:
                                    ("boundary", self.boundary, BOUNDARIES)):
             if value not in known:
                 raise ValueError(f"{name} must be one of {', '.join(known)}, got {value!r}")
+        if self.iceflow == "cnn":
+            from unerode_cli.glacier import cnn_iceflow
+
+            cnn_iceflow.require_torch()
         self.flow.validate(shape)
         for spec in (*massbalance.PARAMETERS, *erosion.PARAMETERS):
             if spec.name != "ela":
@@ -260,14 +266,21 @@ def flow_field(bed: np.ndarray, thickness: np.ndarray, grid: Grid, params: Coupl
                max_iter: int | None = None, energy_rtol: float | None = None) -> FlowField:
     """Velocities of the geometry (b, H) with ``params.iceflow``; Blatter–Pattyn warm-started
     from ``warm`` (lattice velocities) to the residual ``rtol`` (default ``params.flow_rtol``) or
-    the energy rule ``energy_rtol`` (default ``params.flow_energy_rtol``; 0: residual only)."""
+    the energy rule ``energy_rtol`` (default ``params.flow_energy_rtol``; 0: residual only); with
+    ``"cnn"`` the run's network predicts the warm start instead (``cnn_iceflow.CnnIceflow.solve``:
+    refinement, then ``blatter.solve`` to ``rtol`` when the refinement misses it)."""
     if params.iceflow == "sia":
         return sia_flow(bed, thickness, grid, params.flow, params.boundary, params.background_slope)
-    sol = blatter.solve(bed, thickness, grid, params.flow, boundary=params.boundary,
-                        background_slope=params.background_slope, initial=warm,
-                        rtol=params.flow_rtol if rtol is None else rtol,
-                        max_iter=params.flow_max_iter if max_iter is None else max_iter,
-                        energy_rtol=params.flow_energy_rtol if energy_rtol is None else energy_rtol)
+    solve = blatter.solve
+    if params.iceflow == "cnn":  # the network of this run (``cnn_iceflow.model_of``), then blatter.solve
+        from unerode_cli.glacier import cnn_iceflow
+
+        solve = cnn_iceflow.model_of(params).solve
+    sol = solve(bed, thickness, grid, params.flow, boundary=params.boundary,
+                background_slope=params.background_slope, initial=warm,
+                rtol=params.flow_rtol if rtol is None else rtol,
+                max_iter=params.flow_max_iter if max_iter is None else max_iter,
+                energy_rtol=params.flow_energy_rtol if energy_rtol is None else energy_rtol)
     return FlowField(sol.mean_velocity(), sol.surface_velocity(), sol.basal_velocity(), (sol.u, sol.v),
                      sol.iterations, sol.evaluations, sol.residual, sol.energy, sol.converged)
 

@@ -59,8 +59,11 @@ DT = Opt("dt", float, 10.0, "Time step (years). Multi-scale transport starts fro
          parser=POSITIVE_YEARS, record="dt_years")
 
 ICE_FLOW = (
-    Opt("iceflow", str, "blatter", "Ice flow: blatter (Blatter–Pattyn energy, 001 Eq. 7) or sia (shallow "
-        "ice + Weertman sliding, fast baseline).", choices=("blatter", "sia"), panel=FLOW_PANEL),
+    Opt("iceflow", str, "blatter", "Ice flow: blatter (Blatter–Pattyn energy, 001 Eq. 7), sia (shallow "
+        "ice + Weertman sliding, fast baseline) or cnn (001 §4: a network trained on the fly on the same "
+        "energy predicts the velocities, which the solver then brings to --flow-rtol; needs PyTorch, "
+        "pip install 'unerode-cli[cnn]'; slower than blatter on CPUs, docs/glaciate.md).",
+        choices=coupled.ICEFLOWS, panel=FLOW_PANEL),
     Opt("layers", int, FLOW_SPECS["n_layers"].default, "Layers N of the ice-flow lattice (001 §4.2), ≥ 1.",
         minimum=1, panel=FLOW_PANEL),
     Opt("flow_rtol", float, coupled.FLOW_RTOL, "Relative residual ‖∇E‖/‖∇E(0)‖ every Blatter–Pattyn "
