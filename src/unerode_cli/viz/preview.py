@@ -98,20 +98,7 @@ def save_preview(
     (:func:`preview_factor`, :func:`decimate`) and shaded with cells ``factor`` times larger;
     the colour range and the axes (km) stay those of the full raster.
     """
-    factor = preview_factor(elevation.shape)
-    small = decimate(elevation, factor, "mean")
-    valid = np.isfinite(small)
-    if not valid.any():
-        raise ValueError("the heightfield has no valid cell to preview")
-    lo, hi = float(np.nanmin(elevation)), float(np.nanmax(elevation))
-    norm = Normalize(lo, hi if hi > lo else lo + 1.0)
-    filled = np.where(valid, small, lo)
-    colour_map = sea_land_colormap(lo, hi) if cmap == "sea-land" else plt.get_cmap(cmap)
-    shaded = LightSource(azdeg=315, altdeg=45).shade(
-        filled, cmap=colour_map, norm=norm, blend_mode="soft",
-        vert_exag=vertical_exaggeration, dx=dx * factor, dy=dy * factor,
-    )
-    shaded[..., 3] = valid
+    shaded, norm, colour_map = shaded_relief(elevation, dx, dy, cmap, vertical_exaggeration)
     ny, nx = elevation.shape
     aspect = (ny * dy) / (nx * dx)
     width = 7.0
@@ -126,6 +113,30 @@ def save_preview(
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def shaded_relief(elevation: np.ndarray, dx: float, dy: float, cmap: str = "sea-land",
+                  vertical_exaggeration: float = 1.0) -> tuple[np.ndarray, Normalize, Colormap]:
+    """(RGBA float[my, mx, 4], its Normalize, its colour map): the hillshade of ``elevation``
+    (float[ny, nx] m, NaN = nodata, cells ``dx`` × ``dy`` m; sun from the north-west, 45° high)
+    soft-blended with ``cmap`` over the raster's full elevation range, nodata transparent. A
+    raster of more than :data:`PREVIEW_MAX_CELLS` cells a side is first reduced by block means
+    (:func:`preview_factor`, :func:`decimate`) and shaded with cells that many times larger.
+    ValueError when no cell is valid."""
+    factor = preview_factor(elevation.shape)
+    small = decimate(elevation, factor, "mean")
+    valid = np.isfinite(small)
+    if not valid.any():
+        raise ValueError("the heightfield has no valid cell to preview")
+    lo, hi = float(np.nanmin(elevation)), float(np.nanmax(elevation))
+    norm = Normalize(lo, hi if hi > lo else lo + 1.0)
+    colour_map = sea_land_colormap(lo, hi) if cmap == "sea-land" else plt.get_cmap(cmap)
+    shaded = LightSource(azdeg=315, altdeg=45).shade(
+        np.where(valid, small, lo), cmap=colour_map, norm=norm, blend_mode="soft",
+        vert_exag=vertical_exaggeration, dx=dx * factor, dy=dy * factor,
+    )
+    shaded[..., 3] = valid
+    return shaded, norm, colour_map
 
 
 def sea_land_colormap(lo: float, hi: float, levels: int = 256) -> Colormap:

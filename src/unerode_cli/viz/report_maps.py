@@ -10,7 +10,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from unerode_cli.viz.preview import decimate, preview_factor, sea_land_colormap
+from unerode_cli.viz.preview import decimate, preview_factor, shaded_relief
 
 #: Width of a report map (inches) and its resolution (dots per inch): 576 px, two maps side by
 #: side on a 1400 px page.
@@ -72,20 +72,8 @@ def save_relief_map(elevation: np.ndarray, dx: float, dy: float, frame: MapFrame
     ``dx`` × ``dy`` m): hillshade (sun from the north-west, 45° high) soft-blended with the
     sea-land colours of :func:`~unerode_cli.viz.preview.sea_land_colormap`, on the axes of
     ``frame``. Rasters of more than 2048 cells a side are first reduced by block means."""
-    from matplotlib.colors import LightSource, Normalize
-
     plt = _pyplot()
-    factor = preview_factor(elevation.shape)
-    small = decimate(elevation, factor, "mean")
-    valid = np.isfinite(small)
-    if not valid.any():
-        raise ValueError("the heightfield has no valid cell to map")
-    lo, hi = float(np.nanmin(small)), float(np.nanmax(small))
-    norm = Normalize(lo, hi if hi > lo else lo + 1.0)
-    colours = sea_land_colormap(lo, hi)
-    shaded = LightSource(azdeg=315, altdeg=45).shade(np.where(valid, small, lo), cmap=colours, norm=norm,
-                                                     blend_mode="soft", dx=dx * factor, dy=dy * factor)
-    shaded[..., 3] = valid
+    shaded, norm, colours = shaded_relief(elevation, dx, dy)
     fig, ax = _figure(plt, frame)
     ax.imshow(shaded, extent=frame.extent, interpolation="bilinear", aspect=frame.aspect)
     _axes(ax, frame, title)
