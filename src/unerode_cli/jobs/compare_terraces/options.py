@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from unerode_cli.run.common_options import GEOREF, OUTLETS, OVERWRITE, SEA_LEVEL
@@ -26,7 +27,8 @@ OPTIONS = (
         panel=INPUTS),
     Opt("incision", Path, None, "CSV of incision rates with the columns from_ka, to_ka and rate_mm_per_ka, "
         "and optionally uncertainty_mm_per_ka and name.", role="input", panel=INPUTS),
-    *GEOREF,
+    # in a panel of their own: beside the required options of Inputs their names would be cut
+    *(dataclasses.replace(opt, panel="Georeferencing of the inputs") for opt in GEOREF),
     Opt("river", Path, None, "River line in the DEM's CRS: GeoJSON or WKT LINESTRING (either direction).",
         role="input", panel=RIVER),
     Opt("auto_river", bool, False, "Extract the main channel by steepest descent instead of --river.",
