@@ -42,12 +42,13 @@ def test_durations(seconds: float, text: str) -> None:
     assert duration(seconds) == text
 
 
-def test_a_local_cluster_on_few_cores_is_said_to_be_no_faster() -> None:
-    text = slow_cluster_warning(local=True, cores=2, workers=2)
-    assert text is not None and "2 core(s)" in text and "--workers 1" in text
-    assert slow_cluster_warning(local=True, cores=2, workers=1) is None
-    assert slow_cluster_warning(local=True, cores=16, workers=4) is None
-    assert slow_cluster_warning(local=False, cores=2, workers=2) is None
+def test_a_local_cluster_on_busy_cores_is_said_to_be_no_faster() -> None:
+    text = slow_cluster_warning(local=True, cores=2, workers=2, load=2.3)
+    assert text is not None and "load 2.3 on 2 core(s)" in text and "--workers 1" in text
+    assert slow_cluster_warning(local=True, cores=2, workers=2, load=0.9) is None   # idle: 2 workers win
+    assert slow_cluster_warning(local=True, cores=2, workers=1, load=2.3) is None
+    assert slow_cluster_warning(local=True, cores=16, workers=4, load=4.0) is None
+    assert slow_cluster_warning(local=False, cores=2, workers=2, load=2.3) is None
 
 
 def test_members_shorter_than_the_cluster_start_are_said() -> None:

@@ -175,7 +175,7 @@ def connect(engine: Engine, tasks: int,
             yield Cluster(client, engine.threads or 1, engine.retries, False, time.perf_counter() - started)
         return
     workers, threads = engine.sizes(tasks)
-    slow = slow_cluster_warning(True, available_cores(), workers)
+    slow = slow_cluster_warning(True, available_cores(), workers, os.getloadavg()[0])
     if slow:
         warnings.warn(slow, stacklevel=3)
     with tempfile.TemporaryDirectory(prefix="unerode-dask-", ignore_cleanup_errors=True) as scratch:
