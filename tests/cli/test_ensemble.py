@@ -85,6 +85,22 @@ def test_summary_rasters_equal_numpy_statistics_of_the_members(ensemble_run) -> 
     assert read(out / "summary" / "past_std.tif").max() > 0.1
 
 
+def test_the_snapshot_statistics_are_one_cf_netcdf_time_series(ensemble_run) -> None:
+    xarray = pytest.importorskip("xarray")
+    _, out, result = ensemble_run
+    assert "2 age(s) also in snapshots.nc" in result.stderr
+    with xarray.open_dataset(out / "summary" / "snapshots.nc") as ds:
+        assert ds.attrs["Conventions"] == "CF-1.8"
+        assert ds["age"].values.tolist() == [20.0, 10.0]          # past.tif ends at 20 ka
+        assert ds["time"].values.tolist() == [-20000.0, -10000.0] and ds["time"].attrs["units"] == "year"
+        assert ds["elevation_mean"].attrs["cell_methods"] == "realization: mean"
+        assert ds["elevation_std"].attrs["units"] == "m" and "crs" in ds.variables
+        for k, stem in enumerate(("past", "past_10ka")):
+            for name in STATISTICS:
+                expected = read(out / "summary" / f"{stem}_{name}.tif").astype(np.float32)
+                assert np.allclose(ds[f"elevation_{name}"].values[k], expected, atol=1e-3), (stem, name)
+
+
 def test_members_are_ranked_by_their_terrace_rmse(ensemble_run) -> None:
     _, out, _ = ensemble_run
     rows = table(out / "members.csv")

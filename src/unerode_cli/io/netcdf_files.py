@@ -68,27 +68,40 @@ def write_series(path: Path, snapshots: Sequence[Path], quantity: Quantity = ELE
     age, see :data:`TIME_TAG`) as one CF-1.8 time series at ``path``, atomically, in time
     order; one snapshot is held in memory at a time. Refused (InputError): no snapshot, or
     snapshots on different grids."""
-    if not snapshots:
+    write_variables(path, [(quantity, snapshots)], title or f"{quantity.long_name} snapshots")
+
+
+def write_variables(path: Path, variables: Sequence[tuple[Quantity, Sequence[Path]]], title: str) -> None:
+    """Write several data variables on one time axis: for each ``(quantity, snapshots)`` the
+    rasters of one grid tagged with their times, as in :func:`write_series` (e.g. the
+    members' mean, spread and percentiles of an ensemble's snapshots). The first variable's
+    snapshots set the time axis; the others must have the same times. Refused (InputError): no
+    snapshot, snapshots on different grids or at other times."""
+    if not variables or not variables[0][1]:
         raise InputError(f"there are no snapshots to write into {path.name}.")
-    first = read_header(Path(snapshots[0]))
-    order = _time_order(snapshots)
-    times = [t for t, _, _ in order]
-    ages = [a for _, a, _ in order]
+    reference = Path(variables[0][1][0])
+    first = read_header(reference)
+    orders = [_time_order(snapshots) for _, snapshots in variables]
+    times = [t for t, _, _ in orders[0]]
+    ages = [a for _, a, _ in orders[0]]
+    if any([t for t, _, _ in order] != times for order in orders[1:]):
+        raise InputError(f"the variables of {path.name} have snapshots at different times.")
     fill = FILL if first.nodata is None or not math.isfinite(first.nodata) else float(first.nodata)
     with atomic_path(path) as tmp, netCDF4.Dataset(tmp, "w", format="NETCDF4") as ds:
-        _global_attributes(ds, title or f"{quantity.long_name} snapshots")
+        _global_attributes(ds, title)
         xname, yname = _coordinates(ds, first.crs_wkt, first.transform, first.shape)
         _time_axis(ds, times, ages if all(a is not None for a in ages) else None)
         rows, cols = first.shape
-        var = ds.createVariable(quantity.name, "f4", ("time", yname, xname), zlib=True, complevel=4,
-                                shuffle=True, chunksizes=(1, min(rows, CHUNK), min(cols, CHUNK)),
-                                fill_value=np.float32(fill))
-        _describe(var, quantity, bool(first.crs_wkt), "age" in ds.variables)
-        for k, (_, _, snapshot) in enumerate(order):
-            layer = read_terrain(snapshot)
-            if layer.shape != first.shape or not layer.transform.almost_equals(first.transform):
-                raise InputError(f"snapshot {snapshot} is not on the grid of {snapshots[0]}.")
-            var[k] = np.where(np.isfinite(layer.elevation), layer.elevation, fill).astype(np.float32)
+        for (quantity, _), order in zip(variables, orders, strict=True):
+            var = ds.createVariable(quantity.name, "f4", ("time", yname, xname), zlib=True, complevel=4,
+                                    shuffle=True, chunksizes=(1, min(rows, CHUNK), min(cols, CHUNK)),
+                                    fill_value=np.float32(fill))
+            _describe(var, quantity, bool(first.crs_wkt), "age" in ds.variables)
+            for k, (_, _, snapshot) in enumerate(order):
+                layer = read_terrain(snapshot)
+                if layer.shape != first.shape or not layer.transform.almost_equals(first.transform):
+                    raise InputError(f"snapshot {snapshot} is not on the grid of {reference}.")
+                var[k] = np.where(np.isfinite(layer.elevation), layer.elevation, fill).astype(np.float32)
 
 
 def _time_order(snapshots: Sequence[Path]) -> list[tuple[float, float | None, Path]]:
@@ -170,6 +183,8 @@ def _describe(var: netCDF4.Variable, quantity: Quantity, mapped: bool, aged: boo
     if quantity.standard_name:
         var.standard_name = quantity.standard_name
     var.long_name, var.units = quantity.long_name, quantity.units
+    if quantity.cell_methods:
+        var.cell_methods = quantity.cell_methods
     if mapped:
         var.grid_mapping = "crs"
     if aged:

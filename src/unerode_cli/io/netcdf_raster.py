@@ -18,6 +18,8 @@ class Quantity:
     standard_name: str
     long_name: str
     units: str
+    #: CF ``cell_methods`` ("realization: mean" for an ensemble mean), "" when none.
+    cell_methods: str = ""
 
 
 ELEVATION = Quantity("elevation", "surface_altitude", "surface elevation", "m")

@@ -4,7 +4,11 @@ outputs of its finished members.
 * **Rasters.** For each raster output of the members' pipeline that every finished member
   wrote (an elevation, a snapshot at an age, a change map …), ``summary/STEM_STAT.tif`` for
   STAT in mean, std, p5, p50, p95 (``ensemble.summary``), as cloud-optimised GeoTIFFs with the
-  members' grid and CRS and, for a snapshot, its age tag (``UNERODE_AGE_KA``).
+  members' grid and CRS and, for a snapshot, its age tag (``UNERODE_AGE_KA``). The
+  statistics of the snapshots (rasters with an age) also go into one CF-1.8 NetCDF time
+  series, ``summary/snapshots.nc`` (``io.netcdf_files``): variables ``elevation_STAT`` (m) on
+  the ``time``/``age`` axis, the mean and standard deviation with the CF cell methods
+  ``realization: mean`` and ``realization: standard_deviation``.
 * **Scores.** When the pipeline runs ``compare-terraces``, each member's scores from its
   report's summary.json (the first such report): the terrace RMSE and bias (m) and the RMS of
   the incision-rate residuals (mm/ka). Members are ranked by the terrace RMSE (else the
@@ -28,9 +32,11 @@ import numpy as np
 from unerode_cli.ensemble.summary import STATISTICS, cell_statistics, ranks
 from unerode_cli.io.ensemble_files import MEMBERS_TABLE, SUMMARY_FOLDER, read_record, write_record, write_rows
 from unerode_cli.io.gdal_io import WriteOptions
+from unerode_cli.io.netcdf_files import write_variables
+from unerode_cli.io.netcdf_raster import Quantity
 from unerode_cli.io.paths import atomic_path, check_output
 from unerode_cli.io.provenance import fixed_epoch
-from unerode_cli.io.rasters import read_terrain
+from unerode_cli.io.rasters import read_header, read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.run.outputs import AGE_TAG, Outputs, save
 from unerode_cli.viz.ensemble_plots import save_scatter
@@ -41,6 +47,15 @@ SCORES = {"terrace_rmse_m": "terrace RMSE (m)", "terrace_bias_m": "terrace bias 
           "incision_rmse_mm_per_ka": "incision-rate error (mm/ka)"}
 #: How many of the best members summary/best.json lists.
 BEST = 5
+#: The snapshots' statistics as one NetCDF time series, in the summary folder.
+SNAPSHOTS_NC = "snapshots.nc"
+#: Long names and CF cell methods of the statistics' NetCDF variables.
+STATISTIC_TEXTS = {"mean": ("members' mean of the surface elevation", "realization: mean"),
+                   "std": ("standard deviation of the members' surface elevation",
+                           "realization: standard_deviation"),
+                   "p5": ("5th percentile of the members' surface elevation", ""),
+                   "p50": ("median of the members' surface elevation", "realization: median"),
+                   "p95": ("95th percentile of the members' surface elevation", "")}
 
 
 @dataclass(frozen=True)
@@ -81,6 +96,7 @@ def summarise(job: SummaryJob, on_note: Callable[[str], None] = lambda text: Non
     order = _ranked(job.members, scores)
     _write_members_table(job, scores, order)
     rasters = _write_rasters(job, finished, on_note) if finished else 0
+    aged = _write_snapshot_series(job) if rasters else 0
     best = [m for m in order if scores.get(m.index, {}).get("rank") is not None][:BEST]
     if best:
         write_record(job.folder / "best.json", {"members": [
@@ -91,6 +107,8 @@ def summarise(job: SummaryJob, on_note: Callable[[str], None] = lambda text: Non
     if len(finished) < len(job.members):
         text += f", {len(job.members) - len(finished)} failed (see failures.csv)"
     text += f"; {rasters} summary raster(s) in {job.folder}"
+    if aged:
+        text += f" ({aged} age(s) also in {SNAPSHOTS_NC})"
     if best:
         b = best[0]
         shown = ", ".join(f"{k}={_short(v)}" for k, v in b.parameters.items())
@@ -164,6 +182,27 @@ def _write_rasters(job: SummaryJob, finished: list[MemberResult], on_note: Calla
             _write_statistic(job, first, relative, name, raster, len(layers))
             written += 1
     return written
+
+
+def _write_snapshot_series(job: SummaryJob) -> int:
+    """summary/snapshots.nc from the statistics rasters that carry an age (one per age, the
+    first raster listed at that age); the number of ages (0: none, no file)."""
+    by_age: dict[float, Path] = {}
+    for relative in job.rasters:
+        mean = summary_raster_path(job.folder, relative, "mean")
+        if mean.is_file():
+            age = read_header(mean).tags.get(AGE_TAG)
+            if age is not None:
+                by_age.setdefault(float(age), relative)
+    if not by_age:
+        return 0
+    variables = [(Quantity(f"elevation_{name}", "surface_altitude", STATISTIC_TEXTS[name][0], "m",
+                           STATISTIC_TEXTS[name][1]),
+                  [summary_raster_path(job.folder, relative, name) for relative in by_age.values()])
+                 for name in STATISTICS]
+    write_variables(job.folder / SNAPSHOTS_NC, variables,
+                    f"ensemble of {len(job.members)} member(s): statistics of the snapshots")
+    return len(by_age)
 
 
 def summary_raster_path(folder: Path, relative: Path, statistic: str) -> Path:
