@@ -69,6 +69,8 @@ class OutputPlan:
     (an ensemble's finished members), from the files written."""
 
     inputs: list[Path] = field(default_factory=list)
+    #: The virtual raster (.vrt) input that reads each of its source files listed in ``inputs``.
+    read_by: dict[Path, Path] = field(default_factory=dict)
     cleared: set[Path] = field(default_factory=set)
     written: list[Path] = field(default_factory=list)
     removed: list[Path] = field(default_factory=list)
@@ -91,10 +93,14 @@ class OutputPlan:
             _ACTIVE.reset(token)
 
     def read(self, path: Path | str) -> None:
-        """Record ``path`` as an input: it is never an output of this job."""
+        """Record ``path`` as an input: it is never an output of this job; nor, for a GDAL
+        virtual raster (``.vrt``), is any of the files it reads."""
         path = Path(path)
-        if path not in self.inputs:
-            self.inputs.append(path)
+        for name in (path, *_vrt_sources(path)):
+            if name not in self.inputs:
+                self.inputs.append(name)
+                if name != path:
+                    self.read_by[name] = path
 
     def is_input(self, path: Path, inputs: tuple[Path, ...] = ()) -> Path | None:
         """The input (of the plan or of ``inputs``) that ``path`` names, also through a symlink
@@ -134,7 +140,7 @@ class OutputPlan:
         path = Path(path)
         source = self.is_input(path)
         if source is not None:
-            raise _input_output(path, source)
+            raise _input_output(path, source, self.read_by.get(source))
         if folder:
             if path.is_dir():
                 if not os.access(path, os.W_OK | os.X_OK):
@@ -163,7 +169,7 @@ class OutputPlan:
         _check_folder(path)
         source = self.is_input(path, inputs)
         if source is not None:
-            raise _input_output(path, source)
+            raise _input_output(path, source, self.read_by.get(source))
         if path.is_dir():
             raise _is_a_folder(path)
         resolved = _resolved(path)
@@ -324,6 +330,20 @@ def active_plan() -> OutputPlan:
     return plan
 
 
+def _vrt_sources(path: Path) -> list[Path]:
+    """The files a GDAL virtual raster (``.vrt``) reads, nested VRTs included, as GDAL lists
+    them; [] for another file or a VRT GDAL cannot open (refused where it is read)."""
+    if path.suffix.lower() != ".vrt" or not path.is_file():
+        return []
+    import rasterio
+
+    try:
+        with rasterio.open(path) as src:
+            return [Path(name) for name in src.files if Path(name) != path]
+    except (rasterio.errors.RasterioError, OSError):
+        return []
+
+
 def check_output(path: Path, overwrite: bool, inputs: tuple[Path, ...] = (), *,
                  size: int | None = None, again: bool = False) -> None:
     """:meth:`OutputPlan.check_output` on the active plan."""
@@ -345,9 +365,12 @@ def forget_writes() -> None:
     _ACTIVE.set(OutputPlan())
 
 
-def _input_output(path: Path, source: Path) -> InputError:
-    """The refusal of an output ``path`` that is the input ``source``."""
+def _input_output(path: Path, source: Path, vrt: Path | None = None) -> InputError:
+    """The refusal of an output ``path`` that is the input ``source`` (a file the virtual
+    raster ``vrt`` reads)."""
     same = "" if source == path else f" (it is {source} through a link)"
+    if vrt is not None:
+        same += f" (read by {vrt})"
     return InputError(f"output {path} is also an input of this command{same}; inputs are never "
                       "overwritten, whatever --overwrite says, so give the output another name.")
 
