@@ -18,10 +18,15 @@ What each tool reads of a particles file:
 
 :func:`attribute_colours` turns a property into viridis colours for ``colours``.
 
-A path ending ``.npz`` gets the same columns as a compressed NumPy archive instead (one array
-per column, ``np.load(path)["x"]``; ``origin`` (3,) float64 and ``comments`` as arrays; the
-normals as int8 in 1/127 steps, which :func:`read_particle_ply` turns back into float32): about
-40 % of the PLY's size, for series of snapshots read in Python.
+A path ending ``.npz`` gets the same columns as a compressed NumPy archive instead, for series
+of snapshots read in Python: ``origin`` (3,) float64 and ``comments`` as arrays; the normals as
+int8 in 1/127 steps; each column of 4-byte values (float32, int32) stored as its byte planes,
+a ``uint8`` array ``(4, N)`` whose row k holds byte k of every value (the "shuffle" of HDF5 and
+Blosc: the sign and exponent bytes of neighbouring particles repeat, so deflate packs them
+tightly), named in the archive's ``byte_planes`` with its type in ``plane_types``.
+:func:`read_particle_ply` returns every column as it was (normals as float32): about 26 % of
+the PLY's size (13.2 bytes a particle against 50 on a 206 000-particle hoodoo; 17.5 without the
+byte planes).
 """
 
 from __future__ import annotations
@@ -74,11 +79,7 @@ def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
         kind = "u1" if values.dtype == bool else "<i4" if np.issubdtype(values.dtype, np.integer) else "<f4"
         columns[name] = values.astype(kind)
     if Path(path).suffix.lower() == ".npz":
-        for name in ("nx", "ny", "nz"):
-            columns[name] = np.rint(columns[name] * NORMAL_STEPS).astype(np.int8)
-        with atomic_path(path) as tmp, open(tmp, "wb") as handle:
-            np.savez_compressed(handle, **columns, origin=np.array(origin, dtype=np.float64),
-                                comments=np.array(comments, dtype=str))
+        _write_npz(path, columns, origin, comments)
         return
     table = np.empty(len(positions), dtype=[(name, values.dtype) for name, values in columns.items()])
     for name, values in columns.items():
@@ -91,6 +92,33 @@ def write_particle_ply(path: Path, positions: np.ndarray, normals: np.ndarray,
     with atomic_path(path) as tmp, open(tmp, "wb") as handle:
         handle.write(("\n".join(header) + "\n").encode("ascii"))
         handle.write(table.tobytes())
+
+
+def _write_npz(path: Path, columns: dict[str, np.ndarray], origin: tuple[float, float, float],
+               comments: tuple[str, ...]) -> None:
+    """The columns as a compressed archive (module docstring): normals as int8, 4-byte
+    columns as byte planes."""
+    for name in ("nx", "ny", "nz"):
+        columns[name] = np.rint(columns[name] * NORMAL_STEPS).astype(np.int8)
+    planes = [name for name, values in columns.items() if values.dtype.itemsize == 4]
+    types = [columns[name].dtype.str for name in planes]
+    for name in planes:
+        columns[name] = byte_planes(columns[name])
+    with atomic_path(path) as tmp, open(tmp, "wb") as handle:
+        np.savez_compressed(handle, **columns, origin=np.array(origin, dtype=np.float64),
+                            comments=np.array(comments, dtype=str), byte_planes=np.array(planes, dtype=str),
+                            plane_types=np.array(types, dtype=str))
+
+
+def byte_planes(values: np.ndarray) -> np.ndarray:
+    """``uint8 (itemsize, N)``: row k holds byte k of each of the N values (little-endian)."""
+    values = np.ascontiguousarray(values)
+    return values.view(np.uint8).reshape(len(values), values.dtype.itemsize).T.copy()
+
+
+def from_byte_planes(planes: np.ndarray, dtype: str) -> np.ndarray:
+    """The values (N,) of type ``dtype`` whose bytes :func:`byte_planes` laid out as ``planes``."""
+    return np.ascontiguousarray(planes.T).view(np.dtype(dtype)).reshape(-1)
 
 
 def attribute_colours(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -113,7 +141,11 @@ def read_particle_ply(path: Path) -> tuple[dict[str, np.ndarray], tuple[float, f
     positions are returned as written (relative to the origin)."""
     if Path(path).suffix.lower() == ".npz":
         with np.load(path, allow_pickle=False) as saved:
-            columns = {name: saved[name] for name in saved.files if name not in ("origin", "comments")}
+            kept = ("origin", "comments", "byte_planes", "plane_types")
+            columns = {name: saved[name] for name in saved.files if name not in kept}
+            if "byte_planes" in saved.files:
+                for name, dtype in zip(saved["byte_planes"], saved["plane_types"], strict=True):
+                    columns[str(name)] = from_byte_planes(columns[str(name)], str(dtype))
             for name in ("nx", "ny", "nz"):
                 if name in columns and columns[name].dtype == np.int8:
                     columns[name] = (columns[name] / np.float32(NORMAL_STEPS)).astype("<f4")
