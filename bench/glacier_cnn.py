@@ -85,9 +85,8 @@ def main() -> int:
     print(f"# Grindelwald {bed.shape} cells of {grid.dx:.0f} m, {blatter.FlowParams().n_layers} layers, "
           f"spin-up {args.spinup:g} y in {time.perf_counter() - tic:.0f} s: ice {volume:.3f} km³ on "
           f"{np.mean(h > ICE_MIN_M):.0%} of the cells, max {h.max():.0f} m", flush=True)
-    cnn_params = coupled.CoupledParams(iceflow="cnn")
-    model = cnn_iceflow.attach(cnn_params, cnn_iceflow.CnnIceflow(train_steps=args.train_steps,
-                                                                  refine_iter=args.refine_iter))
+    model = cnn_iceflow.CnnIceflow(train_steps=args.train_steps, refine_iter=args.refine_iter)
+    cnn_params = coupled.CoupledParams(iceflow="cnn", cnn=model)
     blatter_params = coupled.CoupledParams()
     rows = []
     for k in range(args.steps):

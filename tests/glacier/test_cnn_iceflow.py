@@ -7,8 +7,12 @@ grown for 200 years by the converged solver, 5 lattice layers; then coupled step
 
 from __future__ import annotations
 
+import csv
+import json
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -43,8 +47,8 @@ def glacier() -> tuple[coupled.GlacierState, Grid]:
 
 def _run_cnn(state: coupled.GlacierState, grid: Grid, model: cnn_iceflow.CnnIceflow,
              steps: int) -> tuple[coupled.GlacierState, coupled.StepReport]:
-    params = coupled.CoupledParams(flow=FLOW, iceflow="cnn")
-    assert cnn_iceflow.attach(params, model) is cnn_iceflow.model_of(params)
+    params = coupled.CoupledParams(flow=FLOW, iceflow="cnn", cnn=model)
+    assert cnn_iceflow.model_of(params) is model
     for _ in range(steps):
         state, report = coupled.step(state, grid, params, ELA, DT)
     return state, report
@@ -163,15 +167,114 @@ def test_same_seed_same_velocities_bit_for_bit(glacier) -> None:
     np.testing.assert_allclose(runs[0].thickness, runs[2].thickness, atol=0.5)
 
 
+def test_seed_sets_the_initial_weights() -> None:
+    """The same seed gives the same initial weights bit for bit, another seed others (the last
+    layer of both starts at zero); the caller's random state is left as it was."""
+    torch = pytest.importorskip("torch")
+    torch.manual_seed(123)
+    expected = torch.rand(3)
+    torch.manual_seed(123)
+    nets = [cnn_iceflow.CnnIceflow(seed=seed)._network(30, 8, False) for seed in (5, 5, 6)]
+    np.testing.assert_array_equal(torch.rand(3).numpy(), expected.numpy())
+    first = [net[0].weight.detach().numpy() for net in nets]
+    np.testing.assert_array_equal(first[0], first[1])
+    assert float(np.abs(first[0] - first[2]).max()) > 0.01  # uniform in ±1/√(30·9) ≈ ±0.06
+    assert not nets[2][-1].weight.detach().numpy().any()
+    with pytest.raises(ValueError, match="seed"):
+        cnn_iceflow.CnnIceflow(seed=-1)
+
+
+def test_a_checkpointed_network_goes_on_as_the_uninterrupted_one(glacier, tmp_path) -> None:
+    """The network's weights, Adam's state and counters through a checkpoint file
+    (``CnnIceflow.saved``, ``io.checkpoints``) and back: the next steps are bit for bit those of
+    the network that was never stopped, and those of a fresh network of the same seed are not."""
+    pytest.importorskip("torch")
+    from unerode_cli.io.checkpoints import read_state_checkpoint, write_state_checkpoint
+
+    start, grid = glacier
+    straight = cnn_iceflow.CnnIceflow(seed=4, train_steps=3)
+    state, _ = _run_cnn(start, grid, straight, 2)
+    write_state_checkpoint(tmp_path / "state.npz", "run", 2, straight.saved())
+    _, _, saved = read_state_checkpoint(tmp_path / "state.npz")
+    resumed = cnn_iceflow.CnnIceflow(seed=4, train_steps=3)
+    resumed.restore(saved)
+    assert resumed.steps == straight.steps == 2 and resumed.takeovers == straight.takeovers
+    with pytest.raises(ValueError, match="seed"):
+        cnn_iceflow.CnnIceflow(seed=5, train_steps=3).restore(saved)
+    runs = [_run_cnn(state, grid, model, 2)[0] for model in (straight, resumed,
+                                                             cnn_iceflow.CnnIceflow(seed=4, train_steps=3))]
+    for a, b in zip(runs[0].lattice, runs[1].lattice, strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(runs[0].thickness, runs[1].thickness)
+    assert not np.array_equal(runs[0].lattice[0], runs[2].lattice[0])
+
+
+def _takeover_counts(summary: str) -> tuple[int, int, int]:
+    """(met on their own, predictions, takeovers) from the summary's CNN clause."""
+    match = re.search(r"CNN: (\d+) of its (\d+) predictions met it on their own, the converged solver took "
+                      r"over (\d+)\)", summary)
+    assert match, summary
+    return int(match[1]), int(match[2]), int(match[3])
+
+
 def test_glaciate_runs_with_iceflow_cnn(tmp_path, cli) -> None:
+    """A glaciate run with ``--iceflow cnn --seed 5``: the summary and the sidecar count the
+    solves the network met the tolerance in on its own and those the converged solver took over,
+    as the timeline's rows show them (a takeover iterates past the refinement's REFINE_ITER
+    L-BFGS iterations; the first step starts without ice, so the network has nothing to
+    predict); the history records the seed."""
     pytest.importorskip("torch")
     bed, _ = _valley(12, 16)
     dem = write_geotiff(tmp_path / "valley.tif", bed.astype(np.float32), TRANSFORM)
-    out, ice = tmp_path / "bed.tif", tmp_path / "ice.tif"
+    out, ice, timeline = tmp_path / "bed.tif", tmp_path / "ice.tif", tmp_path / "t.csv"
     result = cli("glaciate", dem, out, "--ela", ELA, "--duration", 40, "--dt", 20, "--layers", 3,
-                 "--iceflow", "cnn", "--ice", ice)
+                 "--iceflow", "cnn", "--seed", 5, "--ice", ice, "--timeline", timeline)
     assert result.returncode == 0, result.stderr
     from unerode_cli.io.rasters import read_terrain
 
     thickness = read_terrain(ice).elevation
     assert 1.0 < float(np.nanmax(thickness)) < 200.0
+    own, predicted, takeovers = _takeover_counts(result.stdout + result.stderr)
+    sidecar = json.loads(out.with_name("bed.tif.json").read_text())
+    stats = sidecar["statistics"]
+    counts = (stats["cnn_met_tolerance"], stats["cnn_solves"], stats["cnn_takeovers"])
+    assert counts == (own, predicted, takeovers)
+    rows = list(csv.DictReader(timeline.open()))
+    volumes = [0.0] + [float(row["ice_volume_m3"]) for row in rows]
+    assert predicted == sum(v > 0 for v in volumes[:-1]) == len(rows) - 1 >= 2
+    assert takeovers == sum(int(row["flow_iterations"]) > cnn_iceflow.REFINE_ITER for row in rows)
+    assert own + takeovers == predicted
+    assert sidecar["seed"] == sidecar["parameters"]["seed"] == 5
+
+
+@pytest.mark.slow
+def test_glaciate_cnn_resumed_ends_as_uninterrupted_and_the_seed_matters(tmp_path, cli) -> None:
+    """``--iceflow cnn``: a run stopped after 2 steps (``--max-steps``) and resumed ends bit for bit
+    where an uninterrupted one of the same seed does (the checkpoint keeps the network); another
+    seed gives other outputs, the same within the takeover's tolerance."""
+    pytest.importorskip("torch")
+    from unerode_cli.io.rasters import read_terrain
+
+    bed, _ = _valley(12, 16)
+    dem = write_geotiff(tmp_path / "valley.tif", bed.astype(np.float32), TRANSFORM)
+
+    def run(name: str, seed: int, *extra: object) -> tuple[Path, str]:
+        folder = tmp_path / name
+        folder.mkdir(exist_ok=True)
+        result = cli("glaciate", dem, folder / "bed.tif", "--ela", ELA, "--duration", 80, "--dt", 20,
+                     "--layers", 3, "--iceflow", "cnn", "--seed", seed, "--ice", folder / "ice.tif", *extra)
+        assert result.returncode == 0, result.stderr
+        return folder, result.stdout + result.stderr
+
+    straight, summary = run("straight", 5)
+    resumed, stopped = run("resumed", 5, "--max-steps", 2, "--checkpoint-every", 1)
+    assert "stopped after step 2" in stopped
+    resumed, summary_resumed = run("resumed", 5, "--resume")
+    other, _ = run("other", 6)
+    for name in ("bed.tif", "ice.tif"):
+        a, b = (read_terrain(folder / name).elevation for folder in (straight, resumed))
+        np.testing.assert_array_equal(a, b, err_msg=name)
+    assert _takeover_counts(summary) == _takeover_counts(summary_resumed)
+    ice, ice_other = (read_terrain(folder / "ice.tif").elevation for folder in (straight, other))
+    assert not np.array_equal(ice, ice_other)
+    np.testing.assert_allclose(ice, ice_other, atol=0.5)

@@ -43,10 +43,11 @@ CPU and thread count give bit-identical velocities; another thread count or CPU 
 last bits of the convolutions' sums, and so the weights after the first update (the results
 stay within the guard's tolerance).
 
-State: ``CnnIceflow`` holds the network, its optimiser and the counters. A run keeps one per
-``CoupledParams`` (``model_of``; ``attach`` gives it one with another seed or setting), so the
-weights persist from step to step of that run and nothing is global. They are not part of a
-checkpoint: a resumed run starts from fresh weights.
+State: ``CnnIceflow`` holds the network, its optimiser and the counters. A run's
+``coupled.CoupledParams`` carries one in its field ``cnn`` (``run.glacial.plan`` makes it with
+``--seed``; ``model_of``), so the weights persist from step to step of that run and nothing is
+global. ``saved``/``restore`` give a checkpoint the weights, Adam's moments and step counts and
+the counters, every float exact: a run resumed from one goes on with the same network.
 
 PyTorch is the optional extra ``unerode-cli[cnn]``; it is imported only when a model is made
 (``require_torch``).
@@ -90,8 +91,8 @@ VELOCITY_SCALE = 100.0
 #: Largest SLIDING_SCALE / C fed to the network (C → 0 would make it infinite).
 SLIDING_INPUT_MAX = 100.0
 DEFAULT_SEED = 0
-#: The attribute of a ``CoupledParams`` that holds its run's model (``model_of``).
-_ATTRIBUTE = "_cnn_iceflow"
+#: The counters of a ``CnnIceflow`` that ``CnnIceflow.saved`` keeps.
+_COUNTERS = ("steps", "takeovers", "refine_iterations", "takeover_iterations")
 
 
 def require_torch() -> Any:
@@ -207,20 +208,24 @@ class CnnIceflow:
     """The network, its Adam optimiser and the counters of one run (module docstring).
 
     Args:
-        seed: seed of the initial weights (``torch.manual_seed``).
+        seed: seed of the initial weights (``torch.manual_seed``), 0 to 2^63 − 1.
         learning_rate: Adam's learning rate.
         refine_iter: L-BFGS iterations of the refinement (0: none).
         train_steps: Adam steps per solve, each on a new prediction of the same geometry (0: the
             weights are left as they are).
 
-    Counters: ``steps`` solved, ``takeovers`` by the converged solver, ``refine_iterations`` and
-    ``takeover_iterations`` (L-BFGS, summed); ``last`` the ``CnnStep`` of the last solve.
+    Counters: ``steps`` solved (geometries with a driving stress: the network predicted),
+    ``takeovers`` by the converged solver, ``refine_iterations`` and ``takeover_iterations``
+    (L-BFGS, summed); ``last`` the ``CnnStep`` of the last solve (None when it had nothing to
+    predict: no ice, or no driving stress).
     """
 
     def __init__(self, seed: int = DEFAULT_SEED, learning_rate: float = LEARNING_RATE,
                  refine_iter: int = REFINE_ITER, train_steps: int = TRAIN_STEPS) -> None:
         if not (0 <= learning_rate < math.inf and refine_iter >= 0 and train_steps >= 0):
             raise ValueError("the CNN's learning rate, refinement iterations and training steps must be ≥ 0")
+        if not 0 <= seed < 2**63:
+            raise ValueError(f"the CNN's seed must be a whole number from 0 to 2^63 − 1, got {seed}")
         self.seed, self.learning_rate = seed, learning_rate
         self.refine_iter, self.train_steps = refine_iter, train_steps
         self.network: Any = None
@@ -307,6 +312,7 @@ class CnnIceflow:
         solution's ``iterations`` and ``evaluations`` count the refinement and the takeover."""
         from unerode_cli.glacier.blatter_energy import driving_force, expand
 
+        self.last = None
         params = params or blatter.FlowParams()
         periodic, valid, b, h, c_node = blatter._checked_inputs(bed, thickness, grid, params, boundary)
         tilt = math.tan(background_slope)
@@ -336,18 +342,66 @@ class CnnIceflow:
                             refined)
         return solution
 
+    def saved(self) -> dict[str, Any]:
+        """The model as a checkpoint keeps it: ``cnn`` (a mapping of numbers: the seed, the
+        settings, the counters, and the network's channels ``shape``, None before its first
+        prediction) and, once the network exists, its parameters and Adam's state as NumPy
+        arrays (``cnn_weight_K``, ``cnn_adam_avg_K``, ``cnn_adam_sq_K``: float32, the shapes of
+        the K-th parameter; ``cnn_adam_step``: float32[K]), every bit kept; ``restore`` takes it
+        back."""
+        meta = {"seed": self.seed, "learning_rate": self.learning_rate, "refine_iter": self.refine_iter,
+                "train_steps": self.train_steps, "shape": None if self.shape is None else list(self.shape),
+                **{name: getattr(self, name) for name in _COUNTERS}}
+        out: dict[str, Any] = {"cnn": meta}
+        if self.network is None:
+            return out
+        state = self.optimizer.state
+        steps = []
+        for k, weight in enumerate(self.network.parameters()):
+            out[f"cnn_weight_{k}"] = weight.detach().numpy().copy()
+            moments = state.get(weight, {})
+            zero = np.zeros(tuple(weight.shape), dtype=np.float32)
+            out[f"cnn_adam_avg_{k}"] = moments["exp_avg"].numpy().copy() if moments else zero
+            out[f"cnn_adam_sq_{k}"] = moments["exp_avg_sq"].numpy().copy() if moments else zero
+            steps.append(float(moments["step"]) if moments else 0.0)
+        out["cnn_adam_step"] = np.array(steps, dtype=np.float32)
+        return out
+
+    def restore(self, saved: dict[str, Any]) -> None:
+        """Take back what ``saved`` gave (extra keys are ignored): the counters, and the network
+        with its weights and Adam's state when it had been made. ValueError when the seed or the
+        settings differ from this model's."""
+        meta = saved["cnn"]
+        mine = (self.seed, self.learning_rate, self.refine_iter, self.train_steps)
+        theirs = (meta["seed"], meta["learning_rate"], meta["refine_iter"], meta["train_steps"])
+        if tuple(theirs) != mine:
+            raise ValueError(f"the checkpoint's CNN (seed, learning rate, refinement, training steps) "
+                             f"{tuple(theirs)} is not this run's {mine}")
+        for name in _COUNTERS:
+            setattr(self, name, int(meta[name]))
+        self.network = self.optimizer = self.shape = self.last = None
+        if meta["shape"] is None:
+            return
+        torch = require_torch()
+        channels_in, channels_out, periodic = meta["shape"]
+        network = self._network(int(channels_in), int(channels_out), bool(periodic))
+        weights = list(network.parameters())
+        steps = np.asarray(saved["cnn_adam_step"], dtype=np.float32)
+        with torch.no_grad():
+            for k, weight in enumerate(weights):
+                weight.copy_(torch.from_numpy(np.asarray(saved[f"cnn_weight_{k}"], dtype=np.float32)))
+        moments = {k: {"step": torch.tensor(steps[k]),
+                       "exp_avg": torch.from_numpy(np.array(saved[f"cnn_adam_avg_{k}"], dtype=np.float32)),
+                       "exp_avg_sq": torch.from_numpy(np.array(saved[f"cnn_adam_sq_{k}"], dtype=np.float32))}
+                   for k in range(len(weights)) if steps[k] > 0}
+        fresh = self.optimizer.state_dict()
+        self.optimizer.load_state_dict({"state": moments, "param_groups": fresh["param_groups"]})
+
 
 def model_of(params: Any) -> CnnIceflow:
-    """The ``CnnIceflow`` of the run of ``params`` (a ``coupled.CoupledParams``), made with the
-    defaults on first use and kept on that object for the rest of the run."""
-    model = vars(params).get(_ATTRIBUTE)
+    """The ``CnnIceflow`` of the run of ``params`` (a ``coupled.CoupledParams``: its field
+    ``cnn``); ValueError where it has none."""
+    model = params.cnn
     if model is None:
-        model = attach(params, CnnIceflow())
-    return model
-
-
-def attach(params: Any, model: CnnIceflow) -> CnnIceflow:
-    """Give the run of ``params`` the model ``model`` (another seed, learning rate or refinement);
-    returns it."""
-    object.__setattr__(params, _ATTRIBUTE, model)
+        raise ValueError("iceflow cnn needs its network: CoupledParams(cnn=cnn_iceflow.CnnIceflow(seed))")
     return model

@@ -67,13 +67,16 @@ import math
 import time as clock
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from unerode_cli.glacier import blatter, erosion, massbalance, multiscale, sia, transport
 from unerode_cli.grid import Grid
 from unerode_cli.processes.parameters import check_on_grid
+
+if TYPE_CHECKING:
+    from unerode_cli.glacier.cnn_iceflow import CnnIceflow
 
 #: Relative residual ‖∇E‖/‖∇E(0)‖ every prognostic solve must meet (module docstring: its measured
 #: velocity error).
@@ -146,6 +149,9 @@ class CoupledParams:
     ``flow``: rheology, sliding and lattice (``blatter.FlowParams``; SIA uses A, n, ρ, g, C, σ).
     ``iceflow``: ``"blatter"``, ``"sia"`` or ``"cnn"`` (``cnn_iceflow``: a network trained on the fly
     predicts the Blatter–Pattyn velocities, refined and guarded to ``flow_rtol``; needs PyTorch);
+    ``cnn``: that network (``cnn_iceflow.CnnIceflow``, its weights trained along the run: one object
+    for all the steps of a run, shared by the copies ``dataclasses.replace`` makes), required with
+    ``iceflow="cnn"`` and unused otherwise; left out of comparisons;
     ``transport``: ``"multiscale"`` or ``"explicit"``;
     ``allow_substeps``: cut unstable explicit steps into sub-steps (else ``UnstableStep``).
     ``beta`` (1/y), ``p_max`` (m/y): 001 Eq. 2, number or raster; ``snow_slope_min``,
@@ -178,6 +184,7 @@ class CoupledParams:
     flow_energy_rtol: float = FLOW_ENERGY_RTOL
     multiscale_cfl: float = MULTISCALE_CFL
     edge_cells: np.ndarray | None = None
+    cnn: CnnIceflow | None = field(default=None, compare=False, repr=False)
 
     def validate(self, shape: tuple[int, int]) -> None:
         """Raise ValueError (one sentence) for an unknown choice or a value out of range."""
@@ -190,6 +197,7 @@ class CoupledParams:
             from unerode_cli.glacier import cnn_iceflow
 
             cnn_iceflow.require_torch()
+            cnn_iceflow.model_of(self)
         self.flow.validate(shape)
         for spec in (*massbalance.PARAMETERS, *erosion.PARAMETERS):
             if spec.name != "ela":
@@ -222,6 +230,9 @@ class FlowField:
     start), None for SIA. ``iterations``, ``evaluations``: L-BFGS work of this solve (0 when the
     warm start was kept); ``residual``: ‖∇E‖/‖∇E(0)‖; ``energy``: E (Pa·m³/y); ``converged``.
     ``diffusivity``: SIA's D + H·|u_b|/|∇s| (m²/y) for its explicit stability, None for Blatter.
+    ``takeover``: for a CNN solve in which the network predicted (``cnn_iceflow``), whether the
+    converged solver took over from its refinement (True) or the refinement met the tolerance
+    (False); None for any other solve (Blatter–Pattyn, SIA, or a geometry without driving stress).
     """
 
     mean: tuple[np.ndarray, np.ndarray]
@@ -234,6 +245,7 @@ class FlowField:
     energy: float = 0.0
     converged: bool = True
     diffusivity: np.ndarray | None = None
+    takeover: bool | None = None
 
     def max_speed(self) -> float:
         """Largest column-mean speed (m/y)."""
@@ -268,21 +280,25 @@ def flow_field(bed: np.ndarray, thickness: np.ndarray, grid: Grid, params: Coupl
     from ``warm`` (lattice velocities) to the residual ``rtol`` (default ``params.flow_rtol``) or
     the energy rule ``energy_rtol`` (default ``params.flow_energy_rtol``; 0: residual only); with
     ``"cnn"`` the run's network predicts the warm start instead (``cnn_iceflow.CnnIceflow.solve``:
-    refinement, then ``blatter.solve`` to ``rtol`` when the refinement misses it)."""
+    refinement, then ``blatter.solve`` to ``rtol`` when the refinement misses it; ``takeover``
+    says which gave the velocities)."""
     if params.iceflow == "sia":
         return sia_flow(bed, thickness, grid, params.flow, params.boundary, params.background_slope)
-    solve = blatter.solve
-    if params.iceflow == "cnn":  # the network of this run (``cnn_iceflow.model_of``), then blatter.solve
+    solve, model = blatter.solve, None
+    if params.iceflow == "cnn":  # the network of this run (``params.cnn``), then blatter.solve
         from unerode_cli.glacier import cnn_iceflow
 
-        solve = cnn_iceflow.model_of(params).solve
+        model = cnn_iceflow.model_of(params)
+        solve = model.solve
     sol = solve(bed, thickness, grid, params.flow, boundary=params.boundary,
                 background_slope=params.background_slope, initial=warm,
                 rtol=params.flow_rtol if rtol is None else rtol,
                 max_iter=params.flow_max_iter if max_iter is None else max_iter,
                 energy_rtol=params.flow_energy_rtol if energy_rtol is None else energy_rtol)
+    takeover = None if model is None or model.last is None else model.last.takeover
     return FlowField(sol.mean_velocity(), sol.surface_velocity(), sol.basal_velocity(), (sol.u, sol.v),
-                     sol.iterations, sol.evaluations, sol.residual, sol.energy, sol.converged)
+                     sol.iterations, sol.evaluations, sol.residual, sol.energy, sol.converged,
+                     takeover=takeover)
 
 
 @dataclass(frozen=True)
@@ -596,7 +612,9 @@ class RunResult:
     energy evaluations), ``unconverged`` (solves that ended above their tolerance ``flow_rtol``:
     iteration cap or stall), ``max_residual``, ``eroded`` (m³ of bedrock removed by the
     glaciers), ``retries`` (multi-scale steps taken again at half their
-    length, ``surface_overshoot``), and ``seconds``: wall-clock time by part of the loop
+    length, ``surface_overshoot``), ``cnn_solves`` (solves of ``iceflow="cnn"`` in which the
+    network predicted, ``FlowField.takeover`` not None) and ``cnn_takeovers`` (those of them that
+    the converged solver finished), and ``seconds``: wall-clock time by part of the loop
     (``WALL_TIME_PARTS``: the ice flow, transport with mass balance and erosion, the processes of
     ice-free ground, and the rest: the checks and callbacks of ``run``). ``cap`` (y): the longest
     next step the ramp and the rejected steps allow (``Stepping``), kept so that a run continued
@@ -615,6 +633,8 @@ class RunResult:
     max_residual: float = 0.0
     eroded: float = 0.0
     retries: int = 0
+    cnn_solves: int = 0
+    cnn_takeovers: int = 0
     seconds: dict[str, float] = field(default_factory=lambda: dict.fromkeys(WALL_TIME_PARTS, 0.0))
     cap: float = math.inf
 
@@ -632,6 +652,8 @@ class RunResult:
         self.unconverged += not flow.converged
         self.max_residual = max(self.max_residual, flow.residual)
         self.eroded += report.eroded
+        self.cnn_solves += flow.takeover is not None
+        self.cnn_takeovers += bool(flow.takeover)
         self.seconds["ice_flow"] += report.flow_seconds
         self.seconds["transport_erosion"] += report.transport_seconds
 
@@ -661,7 +683,7 @@ class RunResult:
 
 #: The totals of a ``RunResult`` that ``RunResult.saved`` keeps (besides ``seconds``).
 _RESULT_TOTALS = ("steps", "substeps", "solves", "resolves", "iterations", "evaluations", "unconverged",
-                  "max_residual", "eroded", "retries", "cap")
+                  "max_residual", "eroded", "retries", "cnn_solves", "cnn_takeovers", "cap")
 
 
 class Stepping:

@@ -22,7 +22,7 @@ from unerode_cli.jobs.glaciate.options import OPTIONS
 from unerode_cli.run.common_options import input_georef
 from unerode_cli.run.declare import declared
 from unerode_cli.run.glacial.options import GlacierRun
-from unerode_cli.run.glacial.outputs import flow_statistics, write_flow, write_glacier
+from unerode_cli.run.glacial.outputs import flow_statistics, run_seed, write_flow, write_glacier
 from unerode_cli.run.glacial.plan import (
     DIAGNOSTIC_MAX_ITER,
     DIAGNOSTIC_RTOL,
@@ -108,7 +108,7 @@ def write_diagnostic(prepared: PreparedGlacierRun, diagnostic: Diagnostic) -> st
     if run.output is not None:
         save(terrain.with_elevation(terrain.elevation), Outputs(run.output, prepared.write, run.overwrite,
                                                                 run.preview),
-             prepared.command, prepared.parameters, stats)
+             prepared.command, prepared.parameters, stats, run_seed(prepared))
     write_flow(prepared, flow, stats)
     state = "converged" if flow.converged else "NOT converged"
     written = ", ".join(str(p) for p in (run.velocity, run.sliding, run.output) if p is not None)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from unerode_cli.glacier import blatter, coupled, cycle, erosion, massbalance
+from unerode_cli.glacier import blatter, cnn_iceflow, coupled, cycle, erosion, massbalance
 from unerode_cli.run.common_options import (
     CHECKPOINTS,
     FORCE,
@@ -64,6 +64,9 @@ ICE_FLOW = (
         "energy predicts the velocities, which the solver then brings to --flow-rtol; needs PyTorch, "
         "pip install 'unerode-cli[cnn]'; slower than blatter on CPUs, docs/glaciate.md).",
         choices=coupled.ICEFLOWS, panel=FLOW_PANEL),
+    Opt("seed", int, cnn_iceflow.DEFAULT_SEED, "Seed of the initial weights of the --iceflow cnn network "
+        "(the same seed gives the same run, bit for bit, on the same CPU and threads); the other ice "
+        "flows draw no random numbers.", minimum=0, panel=FLOW_PANEL),
     Opt("layers", int, FLOW_SPECS["n_layers"].default, "Layers N of the ice-flow lattice (001 §4.2), ≥ 1.",
         minimum=1, panel=FLOW_PANEL),
     Opt("flow_rtol", float, coupled.FLOW_RTOL, "Relative residual ‖∇E‖/‖∇E(0)‖ every Blatter–Pattyn "

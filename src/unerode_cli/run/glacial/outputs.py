@@ -84,6 +84,12 @@ def _flow_columns(flow: coupled.FlowField) -> dict[str, Any]:
             "flow_converged": int(flow.converged)}
 
 
+def run_seed(prepared: PreparedGlacierRun) -> int | None:
+    """The seed the outputs' history records: ``--seed`` for ``--iceflow cnn`` (its network's
+    initial weights), None for the ice flows that draw no random numbers."""
+    return prepared.run.seed if prepared.params.iceflow == "cnn" else None
+
+
 def save_layer(prepared: PreparedGlacierRun, values: np.ndarray, path: Path, unit: str,
                stats: dict[str, Any], time_years: float | None = None) -> None:
     """Write a side raster (ice thickness, basal speed, lake depth) on the DEM's grid, with sidecar."""
@@ -92,22 +98,25 @@ def save_layer(prepared: PreparedGlacierRun, values: np.ndarray, path: Path, uni
     if time_years is not None:
         layer.tags[TIME_TAG] = repr(time_years)
     save(layer, Outputs(path, prepared.write, prepared.run.replaces), prepared.command,
-         prepared.parameters, stats, elevation_preview=False)
+         prepared.parameters, stats, run_seed(prepared), elevation_preview=False)
 
 
 def flow_statistics(flow: coupled.FlowField) -> dict[str, Any]:
-    """The velocity solve in numbers: iterations, residual, energy, fastest surface and sliding."""
+    """The velocity solve in numbers: iterations, residual, energy, fastest surface and sliding;
+    for a CNN solve in which the network predicted, whether the converged solver took over
+    (``cnn_takeover``)."""
+    cnn = {} if flow.takeover is None else {"cnn_takeover": flow.takeover}
     return {"iterations": flow.iterations, "evaluations": flow.evaluations, "residual": flow.residual,
             "converged": flow.converged, "energy_pa_m3_per_y": flow.energy,
             "max_surface_speed_m_per_y": float(np.max(np.hypot(*flow.surface))),
-            "max_sliding_speed_m_per_y": float(np.max(np.hypot(*flow.basal)))}
+            "max_sliding_speed_m_per_y": float(np.max(np.hypot(*flow.basal))), **cnn}
 
 
 def write_flow(prepared: PreparedGlacierRun, flow: coupled.FlowField, stats: dict[str, Any]) -> None:
     """``--velocity`` (two bands, m/y) and ``--sliding`` (m/y) of ``flow``, when asked."""
     run, terrain = prepared.run, prepared.terrain
     if run.velocity is not None:
-        entry = history_entry(prepared.command, prepared.parameters)
+        entry = history_entry(prepared.command, prepared.parameters, run_seed(prepared))
         write_bands(np.stack(flow.surface), terrain, run.velocity, prepared.write,
                     ["surface velocity vx, east (m/y)", "surface velocity vy, along rows = south (m/y)"],
                     {"UNIT": "m/y", "UNERODE_QUANTITY": "ice surface velocity"})
@@ -129,7 +138,7 @@ def write_glacier(prepared: PreparedGlacierRun, outcome: GlacierOutcome) -> str:
     bed = prepared.terrain.with_elevation(final.bed)
     bed.tags.update(_time_tags(prepared, final.time))
     save(bed, Outputs(run.output, prepared.write, run.replaces, run.preview), prepared.command,
-         prepared.parameters, stats)
+         prepared.parameters, stats, run_seed(prepared))
     if run.ice is not None:
         save_layer(prepared, final.thickness, run.ice, "m", stats, final.time)
     if outcome.final_flow is not None:
@@ -185,11 +194,17 @@ def _rock_summary(volumes: dict[str, Any]) -> str:
 
 
 def _solve_summary(prepared: PreparedGlacierRun, result: coupled.RunResult) -> str:
-    """"; N velocity solves to a residual of rtol (I iterations), K missed it" ("" without any)."""
+    """"; N velocity solves to a residual of rtol (I iterations), K missed it" ("" without any),
+    and for ``--iceflow cnn`` how many of the solves the network predicted met it on its own
+    (prediction + refinement) and in how many the converged solver took over."""
     if not result.solves:
         return ""
-    return (f"; {result.solves} velocity solves to a residual of {prepared.params.flow_rtol:g} "
+    text = (f"; {result.solves} velocity solves to a residual of {prepared.params.flow_rtol:g} "
             f"({result.iterations} iterations), {result.unconverged} missed it")
+    if prepared.params.iceflow == "cnn":
+        text += (f" (CNN: {result.cnn_solves - result.cnn_takeovers} of its {result.cnn_solves} "
+                 f"predictions met it on their own, the converged solver took over {result.cnn_takeovers})")
+    return text
 
 
 def solves_warning(result: coupled.RunResult, rtol: float) -> str:
@@ -225,6 +240,7 @@ def _statistics(prepared: PreparedGlacierRun, outcome: GlacierOutcome) -> dict[s
         "unconverged_solves": result.unconverged,
         "unconverged_fraction": result.unconverged / result.solves if result.solves else 0.0,
         "max_flow_residual": result.max_residual,
+        **_cnn_statistics(prepared, result),
         "rock_volumes": rock_volumes(result, outcome.ice_free),
         "wall_time_s": outcome.wall,
         "snapshots": [str(p) for p in outcome.snapshots],
@@ -243,6 +259,17 @@ def _statistics(prepared: PreparedGlacierRun, outcome: GlacierOutcome) -> dict[s
     if outcome.lake_depth is not None:
         stats["lakes"] = asdict(lakes.lake_stats(outcome.lake_depth, terrain.grid))
     return stats
+
+
+def _cnn_statistics(prepared: PreparedGlacierRun, result: coupled.RunResult) -> dict[str, Any]:
+    """For ``--iceflow cnn``: the velocity solves of the accepted steps in which the network
+    predicted (``cnn_solves``), those whose prediction and refinement met ``flow_rtol`` on their own
+    (``cnn_met_tolerance``) and those the converged solver took over (``cnn_takeovers``); empty for
+    the other ice flows."""
+    if prepared.params.iceflow != "cnn":
+        return {}
+    return {"cnn_solves": result.cnn_solves, "cnn_met_tolerance": result.cnn_solves - result.cnn_takeovers,
+            "cnn_takeovers": result.cnn_takeovers}
 
 
 def _time_tags(prepared: PreparedGlacierRun, time_y: float) -> dict[str, str]:

@@ -26,7 +26,7 @@ import numpy as np
 from unerode_cli.climate import ela as ela_model
 from unerode_cli.climate.chronology import YEARS_PER_KA, Series
 from unerode_cli.errors import InputError
-from unerode_cli.glacier import blatter, coupled, cycle
+from unerode_cli.glacier import blatter, cnn_iceflow, coupled, cycle
 from unerode_cli.hydro.outlets import outlet_mask
 from unerode_cli.io.checkpoints import check_checkpoint
 from unerode_cli.io.ela_files import read_ela_proxy, read_ela_table
@@ -122,7 +122,8 @@ def plan_glacier(run: GlacierRun, outputs: OutputPlan, sea_level: Callable[[floa
             multiscale_cfl=run.transport_cfl, flow_rtol=run.flow_rtol, allow_substeps=not run.no_substep,
             boundary=run.boundary,
             background_slope=math.radians(run.background_slope), erosion=run.erosion,
-            edge_cells=outlet_mask(terrain.grid, "all" if run.boundary == "open" else "none"), **values)
+            edge_cells=outlet_mask(terrain.grid, "all" if run.boundary == "open" else "none"),
+            cnn=cnn_iceflow.CnnIceflow(seed=run.seed) if run.iceflow == "cnn" else None, **values)
         params.validate(terrain.shape)
         surface = cycle.surface_params(surface_values, not run.no_hillslope, not run.no_debris,
                                        not run.no_fluvial, run.shield_thickness, run.drainage_every)

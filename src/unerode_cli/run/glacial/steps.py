@@ -6,7 +6,8 @@ The number of steps is not known in advance (the cold-start ramp and the rejecte
 ``coupled.Stepping``): the loop runs until the step that reaches the last time, and its progress
 counts simulated years. Checkpoints: every ``--checkpoint-every`` steps the run's whole state
 (``GlacierSteps.state``: bed, ice, the last velocities, the step cap, the totals, the timeline
-so far and the state of the ice-free processes) goes to ``.OUT.checkpoint.npz`` beside OUT
+so far, the state of the ice-free processes and, with ``--iceflow cnn``, the network's weights
+and optimiser) goes to ``.OUT.checkpoint.npz`` beside OUT
 (``io.checkpoints.write_state_checkpoint``); ``--resume`` continues from it with the steps an
 uninterrupted run would take. ``--max-steps``, or a cancelled progress, ends an invocation after
 a step: the loop returns normally with the run so far, checkpointed. A finished run's outputs
@@ -189,8 +190,9 @@ class GlacierSteps:
 
     def state(self) -> dict[str, Any]:
         """The state a checkpoint keeps (arrays, and numbers, text, lists and mappings of them):
-        the run so far (``coupled.RunResult.saved``), the timeline, the snapshots, the wall time
-        and the ice-free processes' (``saved()``: its arrays as ``free_NAME``)."""
+        the run so far (``coupled.RunResult.saved``), the timeline, the snapshots, the wall time,
+        the ice-free processes' (``saved()``: its arrays as ``free_NAME``) and, with ``--iceflow
+        cnn``, the network's weights, optimiser state and counters (``CnnIceflow.saved``)."""
         saved: dict[str, Any] = {
             **self.stepping.result.saved(), "timeline": self.timeline,
             "snapshots": [str(p) for p in self.snapshots],
@@ -199,15 +201,23 @@ class GlacierSteps:
             free = self.ice_free.saved()
             saved["ice_free"] = {name: value for name, value in free.items() if name not in _ICE_FREE_ARRAYS}
             saved.update({f"free_{name}": np.asarray(free[name]) for name in _ICE_FREE_ARRAYS})
+        if self.prepared.params.cnn is not None:
+            saved.update(self.prepared.params.cnn.saved())
         return saved
 
     def restore(self, saved: dict[str, Any]) -> None:
-        """Take back a checkpoint's state; the ice-free processes too. InputError when the
-        checkpoint's processes of ice-free ground are not this run's."""
-        free = saved["ice_free"]
+        """Take back a checkpoint's state; the ice-free processes and the CNN's network too.
+        InputError when the checkpoint's processes of ice-free ground or network are not this
+        run's."""
+        free, model = saved["ice_free"], self.prepared.params.cnn
+        where = f"the checkpoint {checkpoint_path(self.prepared.run.output)}"
         if (free is None) != (self.ice_free is None):
-            raise InputError(f"the checkpoint {checkpoint_path(self.prepared.run.output)} does not match "
-                             "this run's processes of ice-free ground.")
+            raise InputError(f"{where} does not match this run's processes of ice-free ground.")
+        if model is not None:
+            try:
+                model.restore(saved)
+            except (KeyError, ValueError) as exc:
+                raise InputError(f"{where} does not hold this run's CNN ice-flow network ({exc}).") from None
         if self.ice_free is not None:
             self.ice_free.restore({**free, **{name: saved[f"free_{name}"] for name in _ICE_FREE_ARRAYS}})
         result = coupled.RunResult.restored(saved)
@@ -258,6 +268,8 @@ def _step_info(report: coupled.StepReport) -> str:
     if flow.lattice is not None:
         text += (f", Blatter–Pattyn {flow.iterations} iterations, residual {flow.residual:.3g}"
                  + ("" if flow.converged else " (not converged)"))
+    if flow.takeover is not None:
+        text += ", CNN taken over by the converged solver" if flow.takeover else ", CNN on its own"
     return text
 
 
