@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from affine import Affine
-from pyproj import CRS, Transformer
-from pyproj.exceptions import CRSError
 
 from unerode_cli.errors import InputError
+
+if TYPE_CHECKING:  # pyproj is imported where a CRS is made: the CLI declares its options without it
+    from pyproj import CRS
 
 #: Coordinates beyond this (CRS units) are taken as unusable: sizes and areas computed from
 #: them overflow double precision.
@@ -17,6 +19,9 @@ _HUGE = 1e150
 
 def parse_crs(text: str) -> CRS:
     """A CRS from 'EPSG:n', WKT or a PROJ string; bad text is bad input."""
+    from pyproj import CRS
+    from pyproj.exceptions import CRSError
+
     try:
         return CRS.from_user_input(text)
     except CRSError:
@@ -76,6 +81,8 @@ def centred_transform(
 
 
 def _area_of_use_centre(crs: CRS) -> tuple[float, float]:
+    from pyproj import Transformer
+
     area = crs.area_of_use
     if area is None:
         return (0.0, 0.0)

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from affine import Affine
-from pyproj import CRS
 
 from unerode_cli.errors import InputError
 from unerode_cli.io.georef import parse_crs
@@ -86,7 +85,7 @@ class InputGeoref:
         assigned = parse_crs(self.crs)
         if not file_wkt:
             return assigned.to_wkt()
-        own = CRS.from_user_input(file_wkt)
+        own = parse_crs(file_wkt)
         if own.equals(assigned, ignore_axis_order=True):
             return file_wkt
         raise InputError(f"{path} already has a CRS ({own.name}), not {assigned.name}: --crs only assigns a "
