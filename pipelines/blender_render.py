@@ -1,11 +1,11 @@
 """Render a `sandstone --mesh` file as Blender imports it, headless (Blender ≥ 3.4):
 
-    blender -b --factory-startup --python pipelines/blender_render.py -- MESH.glb|MESH.obj OUT.png
+    blender -b --factory-startup --python pipelines/blender_render.py -- MESH.glb|MESH.obj OUT.png [AZIMUTH]
 
 The mesh is imported with Blender's own importer and its defaults (glTF 2.0, or OBJ with its
 .mtl), so the picture shows what an artist gets: the materials the file carries, its up axis.
-A sun from the north-west, a camera from the south-south-west and above framing the bounding
-box, a grey ground plane at the mesh's base; Cycles on the CPU (no display needed). It prints
+A sun from the north-west, a camera from the azimuth AZIMUTH (degrees clockwise from north;
+200, south-south-west, by default) and 25° above, framing the bounding box, a grey ground plane at the mesh's base; Cycles on the CPU (no display needed). It prints
 one JSON line: the materials imported, the world bounding box (m, Blender is Z-up) and the
 vertex count.
 """
@@ -52,8 +52,9 @@ def bounds(objects: list) -> tuple[Vector, Vector]:
     return low, high
 
 
-def stage(low: Vector, high: Vector, out: str) -> None:
-    """Ground, sun, camera and Cycles settings for a view of the box [low, high]."""
+def stage(low: Vector, high: Vector, out: str, azimuth_deg: float = 200.0) -> None:
+    """Ground, sun, camera (from ``azimuth_deg``, clockwise from north) and Cycles settings for a
+    view of the box [low, high]."""
     centre, size = (low + high) / 2, (high - low).length
     bpy.ops.mesh.primitive_plane_add(size=size * 4, location=(centre.x, centre.y, low.z - 0.01 * size))
     ground = bpy.context.active_object
@@ -64,7 +65,7 @@ def stage(low: Vector, high: Vector, out: str) -> None:
     ground.data.materials.append(grey)
     bpy.ops.object.light_add(type="SUN", rotation=(math.radians(40), 0.0, math.radians(135)))
     bpy.context.active_object.data.energy = 4.0
-    azimuth, elevation = math.radians(200.0), math.radians(25.0)
+    azimuth, elevation = math.radians(azimuth_deg), math.radians(25.0)
     direction = Vector((math.sin(azimuth) * math.cos(elevation), math.cos(azimuth) * math.cos(elevation),
                         math.sin(elevation)))
     bpy.ops.object.camera_add(location=centre + direction * size * 1.7)
@@ -80,18 +81,21 @@ def stage(low: Vector, high: Vector, out: str) -> None:
     scene.cycles.device = "CPU"
     scene.cycles.samples = 32
     scene.cycles.use_denoising = False
-    scene.render.resolution_x, scene.render.resolution_y = 960, 640
+    tall = (high.z - low.z) > max(high.x - low.x, high.y - low.y)    # a column: a portrait frame
+    scene.render.resolution_x, scene.render.resolution_y = (640, 960) if tall else (960, 640)
     scene.render.filepath = out
 
 
 def main() -> None:
-    mesh_path, out = sys.argv[sys.argv.index("--") + 1:][:2]
+    arguments = sys.argv[sys.argv.index("--") + 1:]
+    mesh_path, out = arguments[:2]
+    azimuth = float(arguments[2]) if len(arguments) > 2 else 200.0
     bpy.ops.wm.read_factory_settings(use_empty=True)
     numpy_shim()
     objects = import_mesh(mesh_path)
     low, high = bounds(objects)
     materials = sorted({slot.material.name for o in objects for slot in o.material_slots if slot.material})
-    stage(low, high, out)
+    stage(low, high, out, azimuth)
     bpy.ops.render.render(write_still=True)
     print(json.dumps({"materials": materials, "low": list(low), "high": list(high),
                       "vertices": sum(len(o.data.vertices) for o in objects)}))
