@@ -220,7 +220,7 @@ def glaciate(heightfield: Any, cell_size: CellSize = None, crs: str | None = Non
     ----------
     **options :
         Options of ``unerode-cli glaciate``: ``ela`` (m: a number or an array), ``duration``
-        and ``dt`` (years), ``iceflow`` (``blatter`` or ``sia``), ``layers`` …
+        and ``dt`` (years), ``iceflow`` (``blatter``, ``sia`` or ``cnn``, with ``seed``), ``layers`` …
 
     Returns
     -------

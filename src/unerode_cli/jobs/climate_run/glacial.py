@@ -15,6 +15,7 @@ import numpy as np
 
 from unerode_cli.errors import InputError
 from unerode_cli.glacier import cycle
+from unerode_cli.glacier.cnn_iceflow import DEFAULT_SEED
 from unerode_cli.io.paths import OutputPlan
 from unerode_cli.jobs.climate_run.forcing import read_sea_level, step_count, timeline_path
 from unerode_cli.jobs.climate_run.options import OPTIONS
@@ -96,7 +97,7 @@ def plan_glacial(job: ClimateJob, outputs: OutputPlan, progress: Progress) -> Pr
         ela_present=job.ela_present, ela_glacial=job.ela_glacial, from_ka=job.from_ka, to_ka=job.to_ka,
         dtype=job.dtype, cog=job.cog, co=job.co, overwrite=job.overwrite, preview=job.preview,
         force=job.force, checkpoint_every=job.checkpoint_every, resume=job.resume, max_steps=job.max_steps,
-        **values)
+        iceflow=job.iceflow or "blatter", seed=DEFAULT_SEED if job.seed is None else job.seed, **values)
     sea_level = sea.since(job.from_ka) if job.sea_outlets else None
     return plan_glacier(run, outputs, sea_level, job.COMMAND, context)
 

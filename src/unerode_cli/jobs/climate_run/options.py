@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from unerode_cli.glacier.coupled import ICEFLOWS
 from unerode_cli.run.common_options import (
     BOUNDARY_PANEL,
     CHECKPOINTS,
@@ -109,6 +110,13 @@ OPTIONS = (
         "linear in the chronology between it and --ela-glacial.", parser=Number("m"), panel=GLACIER_PANEL),
     Opt("ela_glacial", float, None, "With --process glacial: the ELA at the last glacial maximum (m), where "
         "the chronology is most glacial between 14 and 30 ka.", parser=Number("m"), panel=GLACIER_PANEL),
+    Opt("iceflow", str, None, "With --process glacial: the glaciers' ice flow, blatter (default: the "
+        "Blatter–Pattyn energy, 001 Eq. 7), sia (shallow ice, fast baseline) or cnn (001 §4: a network "
+        "trained on the fly predicts the velocities, the converged solver finishes them; needs "
+        "PyTorch; see glaciate).", choices=ICEFLOWS, panel=GLACIER_PANEL),
+    Opt("seed", int, None, "With --process glacial and --iceflow cnn: seed of the network's initial "
+        "weights (default 0; the same seed gives the same run, bit for bit, on the same CPU and "
+        "threads).", minimum=0, panel=GLACIER_PANEL),
     *RASTER_OUTPUT,
     Opt("report", bool, False, "Also write OUTPUT_report.html when the run finishes: previews at each "
         "snapshot, chronology and timeline plots, mass budget, parameters and history (see unerode-cli "

@@ -227,6 +227,8 @@ def _check_no_glacier_options(job: ClimateJob) -> None:
     if job.ela_present is not None or job.ela_glacial is not None:
         raise InputError("--ela-present and --ela-glacial set the ELA of the glaciers; add glacial to "
                          "--process.")
+    if job.iceflow is not None or job.seed is not None:
+        raise InputError("--iceflow and --seed set the glaciers' ice flow; add glacial to --process.")
     for spec in GLACIER_ONLY_PARAMETERS:
         if getattr(job, spec.name) is not None:
             raise InputError(f"{flag(spec.name)} is a parameter of the glacier model (001); add glacial "
