@@ -115,7 +115,8 @@ OPTIONS = (
         "with more --frames extends it; 0: never.", minimum=0, panel=OUTPUTS, record=False),
     Opt("snapshot_format", str, "ply", "Format of the snapshots: ply (binary, as particles.ply: for Houdini, "
         "Blender, MeshLab) or npz (the same columns as a compressed NumPy archive, frame_NNNNN.npz: "
-        "about 40 % of the size, for Python).", choices=SNAPSHOT_FORMATS, panel=OUTPUTS, record=False),
+        "about a quarter of the size, read by unerode_cli.io.particle_ply.read_particle_ply).",
+        choices=SNAPSHOT_FORMATS, panel=OUTPUTS, record=False),
     Opt("mesh", Path, None, "Also write the closed surface mesh of the final particles, one material per "
         "layer, UVs by box projection: OUT.glb (glTF 2.0, per-vertex _STRESS, _VIABILITY, _LAYER), "
         "OUT.obj (with OUT.mtl) or OUT.ply; needs scikit-image (and trimesh for .glb): pip install "
