@@ -657,6 +657,11 @@ class RunResult:
         self.seconds["ice_flow"] += report.flow_seconds
         self.seconds["transport_erosion"] += report.transport_seconds
 
+    @property
+    def cnn_met(self) -> int:
+        """Solves of ``iceflow="cnn"`` whose prediction and refinement met ``flow_rtol`` alone."""
+        return self.cnn_solves - self.cnn_takeovers
+
     def saved(self) -> dict[str, Any]:
         """The run as NumPy arrays (bed, ice, the last lattice velocities: ``lattice_u``,
         ``lattice_v``, empty for none) and numbers, lists and mappings of them (the time, the

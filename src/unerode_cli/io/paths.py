@@ -96,11 +96,13 @@ class OutputPlan:
         """Record ``path`` as an input: it is never an output of this job; nor, for a GDAL
         virtual raster (``.vrt``), is any of the files it reads."""
         path = Path(path)
-        for name in (path, *_vrt_sources(path)):
-            if name not in self.inputs:
-                self.inputs.append(name)
-                if name != path:
-                    self.read_by[name] = path
+        if path in self.inputs:
+            return
+        self.inputs.append(path)
+        for source in _vrt_sources(path):
+            if source not in self.inputs:
+                self.inputs.append(source)
+                self.read_by[source] = path
 
     def is_input(self, path: Path, inputs: tuple[Path, ...] = ()) -> Path | None:
         """The input (of the plan or of ``inputs``) that ``path`` names, also through a symlink

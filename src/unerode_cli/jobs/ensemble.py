@@ -36,7 +36,7 @@ from unerode_cli.io.netcdf_files import write_variables
 from unerode_cli.io.netcdf_raster import Quantity
 from unerode_cli.io.paths import atomic_path, check_output
 from unerode_cli.io.provenance import fixed_epoch
-from unerode_cli.io.rasters import read_header, read_terrain
+from unerode_cli.io.rasters import read_terrain
 from unerode_cli.io.terrain import Terrain
 from unerode_cli.run.outputs import AGE_TAG, Outputs, save
 from unerode_cli.viz.ensemble_plots import save_scatter
@@ -95,8 +95,9 @@ def summarise(job: SummaryJob, on_note: Callable[[str], None] = lambda text: Non
     scores = {m.index: member_scores(m, job.reports) for m in finished}
     order = _ranked(job.members, scores)
     _write_members_table(job, scores, order)
-    rasters = _write_rasters(job, finished, on_note) if finished else 0
-    aged = _write_snapshot_series(job) if rasters else 0
+    summarised = _write_rasters(job, finished, on_note) if finished else {}
+    rasters = len(summarised) * len(STATISTICS)
+    aged = _write_snapshot_series(job, summarised)
     best = [m for m in order if scores.get(m.index, {}).get("rank") is not None][:BEST]
     if best:
         write_record(job.folder / "best.json", {"members": [
@@ -163,10 +164,11 @@ def _write_members_table(job: SummaryJob, scores: dict[int, dict[str, Any]],
     write_rows(job.out_dir / MEMBERS_TABLE, columns, rows)
 
 
-def _write_rasters(job: SummaryJob, finished: list[MemberResult], on_note: Callable[[str], None]) -> int:
-    """The statistics rasters of every raster output that all finished members wrote; their
-    count."""
-    written = 0
+def _write_rasters(job: SummaryJob, finished: list[MemberResult],
+                   on_note: Callable[[str], None]) -> dict[Path, float | None]:
+    """The statistics rasters of every raster output that all finished members wrote; each
+    output summarised, with its age (ka; None for a raster without one)."""
+    summarised: dict[Path, float | None] = {}
     for relative in job.rasters:
         missing = [m.folder.name for m in finished if not (m.folder / relative).is_file()]
         if missing:
@@ -180,20 +182,19 @@ def _write_rasters(job: SummaryJob, finished: list[MemberResult], on_note: Calla
         stack = np.stack([layer.elevation for layer in layers])
         for name, raster in cell_statistics(stack).items():
             _write_statistic(job, first, relative, name, raster, len(layers))
-            written += 1
-    return written
+        age = first.tags.get(AGE_TAG)
+        summarised[relative] = None if age is None else float(age)
+    return summarised
 
 
-def _write_snapshot_series(job: SummaryJob) -> int:
-    """summary/snapshots.nc from the statistics rasters that carry an age (one per age, the
-    first raster listed at that age); the number of ages (0: none, no file)."""
+def _write_snapshot_series(job: SummaryJob, summarised: dict[Path, float | None]) -> int:
+    """summary/snapshots.nc from the statistics rasters of the outputs ``summarised`` with an
+    age (one per age, the first output listed at that age); the number of ages (0: none, no
+    file)."""
     by_age: dict[float, Path] = {}
-    for relative in job.rasters:
-        mean = summary_raster_path(job.folder, relative, "mean")
-        if mean.is_file():
-            age = read_header(mean).tags.get(AGE_TAG)
-            if age is not None:
-                by_age.setdefault(float(age), relative)
+    for relative, age in summarised.items():
+        if age is not None:
+            by_age.setdefault(age, relative)
     if not by_age:
         return 0
     variables = [(Quantity(f"elevation_{name}", "surface_altitude", STATISTIC_TEXTS[name][0], "m",

@@ -202,7 +202,7 @@ def _solve_summary(prepared: PreparedGlacierRun, result: coupled.RunResult) -> s
     text = (f"; {result.solves} velocity solves to a residual of {prepared.params.flow_rtol:g} "
             f"({result.iterations} iterations), {result.unconverged} missed it")
     if prepared.params.iceflow == "cnn":
-        text += (f" (CNN: {result.cnn_solves - result.cnn_takeovers} of its {result.cnn_solves} "
+        text += (f" (CNN: {result.cnn_met} of its {result.cnn_solves} "
                  f"predictions met it on their own, the converged solver took over {result.cnn_takeovers})")
     return text
 
@@ -268,7 +268,7 @@ def _cnn_statistics(prepared: PreparedGlacierRun, result: coupled.RunResult) -> 
     the other ice flows."""
     if prepared.params.iceflow != "cnn":
         return {}
-    return {"cnn_solves": result.cnn_solves, "cnn_met_tolerance": result.cnn_solves - result.cnn_takeovers,
+    return {"cnn_solves": result.cnn_solves, "cnn_met_tolerance": result.cnn_met,
             "cnn_takeovers": result.cnn_takeovers}
 
 
